@@ -1,0 +1,76 @@
+// Run-time camera description and dispatch over the templated models in
+// camera/models.h. This is the edge where a model is chosen at run time; the
+// inner loops (Ceres functors, projection of many points) use the templated
+// model types directly.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mcvo/geometry/rigid3d.h"
+
+namespace mcvo {
+
+// Camera models. The parameter order of each is documented in
+// camera/models.h and docs/rig-json.md.
+enum class CameraModelId {
+  kPinhole,        // fx fy cx cy
+  kRadTan,         // fx fy cx cy k1 k2 p1 p2 k3       (OpenCV; JSON may omit k3)
+  kKannalaBrandt,  // fx fy cx cy k1 k2 k3 k4          (equidistant fisheye, cv::fisheye)
+  kMei,            // xi k1 k2 p1 p2 gamma1 gamma2 u0 v0 (unified omnidirectional, cv::omnidir, KITTI-360)
+  kDoubleSphere,   // fx fy cx cy xi alpha             (Usenko et al. 2018)
+};
+
+// Names as used in rig.json: "pinhole", "radtan", "kannala_brandt", "mei",
+// "double_sphere".
+std::string_view CameraModelName(CameraModelId id);
+// Inverse of CameraModelName; also accepts the aliases "opencv" (radtan),
+// "equidistant" and "fisheye" (kannala_brandt), "omni" and "unified" (mei).
+std::optional<CameraModelId> CameraModelFromName(std::string_view name);
+// Number of parameters stored for the model (radtan: 9, k3 included).
+int CameraModelNumParams(CameraModelId id);
+
+// One camera of the rig. Pixel convention: OpenCV's, the centre of the
+// top-left pixel is (0, 0).
+struct Camera {
+  std::string name;
+  CameraModelId model = CameraModelId::kPinhole;
+  std::vector<double> params;  // CameraModelNumParams(model) values
+  int width = 0;
+  int height = 0;
+  Rigid3d cam_from_rig;
+  std::string mask_path;  // empty: no mask (absolute path once loaded)
+
+  // Projects a point in the camera frame to pixels. std::nullopt when the
+  // point is outside the model's valid domain (behind a pinhole camera,
+  // beyond a fisheye's maximum angle, ...). Does not test the image bounds.
+  std::optional<Eigen::Vector2d> Project(const Eigen::Vector3d& point_in_cam) const;
+  // As Project, also returning d(pixel)/d(point_in_cam).
+  std::optional<Eigen::Vector2d> Project(const Eigen::Vector3d& point_in_cam,
+                                         Eigen::Matrix<double, 2, 3>* jacobian) const;
+  // Unit bearing vector of a pixel; std::nullopt outside the model's image of
+  // its valid domain.
+  std::optional<Eigen::Vector3d> Unproject(const Eigen::Vector2d& pixel) const;
+  // True when the pixel is inside the image rectangle [0, w) x [0, h) in
+  // OpenCV's pixel-centre convention (-0.5 .. w-0.5).
+  bool IsInImage(const Eigen::Vector2d& pixel) const;
+  // A representative focal length in pixels (mean of fx and fy, or of the
+  // MEI gammas divided by (1 + xi)), for pixel thresholds.
+  double MeanFocalLength() const;
+};
+
+// A rigid rig of N >= 1 cameras with unique names. The rig frame is the body
+// frame of the dataset (KITTI-360: the GPS/IMU pose frame).
+struct Rig {
+  std::vector<Camera> cameras;
+
+  int NumCameras() const { return static_cast<int>(cameras.size()); }
+  // Index of the camera with this name, or -1.
+  int FindCamera(std::string_view name) const;
+};
+
+}  // namespace mcvo

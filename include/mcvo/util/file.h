@@ -1,0 +1,44 @@
+// File helpers. Every output file of mcvo is written through AtomicFileWriter:
+// the content goes to "<path>.tmp.<pid>" and is renamed onto <path> only when
+// complete, so a crash or an error never leaves a half-written file that
+// looks complete.
+#pragma once
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace mcvo {
+
+class AtomicFileWriter {
+ public:
+  // Opens the temporary file; throws InputError naming `path` when the
+  // directory is not writable.
+  explicit AtomicFileWriter(std::filesystem::path path);
+  // Removes the temporary file if Commit() was not called.
+  ~AtomicFileWriter();
+  AtomicFileWriter(const AtomicFileWriter&) = delete;
+  AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+
+  std::ostream& stream() { return out_; }
+  // Flushes, closes and renames onto the final path. Throws InputError when
+  // the write failed (disk full, ...).
+  void Commit();
+
+ private:
+  std::filesystem::path path_;
+  std::filesystem::path tmp_path_;
+  std::ofstream out_;
+  bool committed_ = false;
+};
+
+// Writes `content` to `path` atomically.
+void WriteFileAtomic(const std::filesystem::path& path, const std::string& content);
+
+// Reads a whole file; throws InputError "<path>: cannot open" when it cannot.
+std::string ReadFileToString(const std::filesystem::path& path);
+
+// Creates `dir` (and parents); throws InputError naming it on failure.
+void CreateDirectories(const std::filesystem::path& dir);
+
+}  // namespace mcvo

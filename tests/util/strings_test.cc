@@ -1,0 +1,56 @@
+#include "mcvo/util/strings.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+namespace mcvo {
+namespace {
+
+TEST(Strings, ParseDoubleAcceptsWholeNumbersOnly) {
+  EXPECT_EQ(ParseDouble("1.5"), 1.5);
+  EXPECT_EQ(ParseDouble(" -2e3 "), -2000.0);
+  EXPECT_EQ(ParseDouble("+4"), 4.0);
+  EXPECT_FALSE(ParseDouble("1.5x").has_value());
+  EXPECT_FALSE(ParseDouble("").has_value());
+  EXPECT_FALSE(ParseDouble("abc").has_value());
+  EXPECT_TRUE(std::isnan(*ParseDouble("nan")));
+}
+
+TEST(Strings, FormatDoubleRoundTripsExactly) {
+  for (double v : {0.1, 1.0 / 3.0, -1e-300, 6.02214076e23, 552.554261, 1e16 + 2}) {
+    EXPECT_EQ(*ParseDouble(FormatDouble(v)), v) << FormatDouble(v);
+  }
+  EXPECT_EQ(FormatDouble(-0.0), "0");
+  EXPECT_EQ(FormatFixed(-0.0001, 3), "0.000");
+  EXPECT_EQ(FormatFixed(2.5, 2), "2.50");
+}
+
+TEST(Strings, SecondsToNanosecondsIsExactThroughDigits) {
+  EXPECT_EQ(ParseSecondsToNs("1369.123456789"), 1369123456789LL);
+  EXPECT_EQ(ParseSecondsToNs("1403636579.763555584"), 1403636579763555584LL);
+  EXPECT_EQ(ParseSecondsToNs("0.1"), 100000000LL);
+  EXPECT_EQ(ParseSecondsToNs("-0.5"), -500000000LL);
+  EXPECT_EQ(ParseSecondsToNs("12"), 12000000000LL);
+  EXPECT_EQ(ParseSecondsToNs("1.0000000005"), 1000000001LL);  // rounds the 10th digit
+  EXPECT_EQ(ParseSecondsToNs("1.5e2"), 150000000000LL);
+  EXPECT_FALSE(ParseSecondsToNs("1.2.3").has_value());
+  EXPECT_FALSE(ParseSecondsToNs("x").has_value());
+  EXPECT_EQ(FormatNsAsSeconds(1369123456789LL), "1369.123456789");
+  EXPECT_EQ(FormatNsAsSeconds(-500000000LL), "-0.500000000");
+  EXPECT_EQ(*ParseSecondsToNs(FormatNsAsSeconds(1403636579763555584LL)), 1403636579763555584LL);
+}
+
+TEST(Strings, SplitFieldsKeepsEmptyFields) {
+  const auto fields = SplitFields("a, b,,c ", ',');
+  ASSERT_EQ(fields.size(), 4u);
+  EXPECT_EQ(fields[0], "a");
+  EXPECT_EQ(fields[1], "b");
+  EXPECT_EQ(fields[2], "");
+  EXPECT_EQ(fields[3], "c");
+  EXPECT_EQ(SplitTokens("  1 2\t3  ").size(), 3u);
+}
+
+}  // namespace
+}  // namespace mcvo
