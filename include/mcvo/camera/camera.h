@@ -33,6 +33,10 @@ std::string_view CameraModelName(CameraModelId id);
 std::optional<CameraModelId> CameraModelFromName(std::string_view name);
 // Number of parameters stored for the model (radtan: 9, k3 included).
 int CameraModelNumParams(CameraModelId id);
+// Empty when `params` are usable for the model, else a one-line reason
+// ("expected 9 parameters, got 8", "fx and fy must be > 0", ...), for the
+// readers that validate user input (they add the file and JSON path).
+std::string CameraParamsError(CameraModelId id, const std::vector<double>& params);
 
 // One camera of the rig. Pixel convention: OpenCV's, the centre of the
 // top-left pixel is (0, 0).
@@ -45,6 +49,9 @@ struct Camera {
   Rigid3d cam_from_rig;
   std::string mask_path;  // empty: no mask (absolute path once loaded)
 
+  // The methods below MCVO_CHECK that params.size() == CameraModelNumParams
+  // (callers validate user input with CameraParamsError first).
+  //
   // Projects a point in the camera frame to pixels. std::nullopt when the
   // point is outside the model's valid domain (behind a pinhole camera,
   // beyond a fisheye's maximum angle, ...). Does not test the image bounds.
@@ -58,8 +65,10 @@ struct Camera {
   // True when the pixel is inside the image rectangle [0, w) x [0, h) in
   // OpenCV's pixel-centre convention (-0.5 .. w-0.5).
   bool IsInImage(const Eigen::Vector2d& pixel) const;
-  // A representative focal length in pixels (mean of fx and fy, or of the
-  // MEI gammas divided by (1 + xi)), for pixel thresholds.
+  // A representative focal length in pixels, for pixel thresholds: the
+  // pixels per radian at the principal point, mean of u and v. Pinhole,
+  // radtan, KB: (fx + fy) / 2; MEI: (gamma1 + gamma2) / 2 / (1 + xi);
+  // double sphere: (fx + fy) / 2 / (1 + xi).
   double MeanFocalLength() const;
 };
 
