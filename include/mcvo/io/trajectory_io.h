@@ -23,10 +23,10 @@ struct StampedPose {
 };
 
 enum class TrajectoryFormat {
-  kTum,         // "t tx ty tz qx qy qz qw", t in seconds
-  kKitti,       // 12 numbers: row-major 3x4 world_from_body, line i = frame i
-  kKittiIndexed,// frame index + 12 numbers (KITTI-360 poses.txt)
-  kEuroc,       // "t_ns, px, py, pz, qw, qx, qy, qz[, ...]" (ground-truth CSV)
+  kTum,           // "t tx ty tz qx qy qz qw", t in seconds
+  kKitti,         // 12 numbers: row-major 3x4 world_from_body, line i = frame i
+  kKittiIndexed,  // frame index + 12 numbers (KITTI-360 poses.txt)
+  kEuroc,         // "t_ns, px, py, pz, qw, qx, qy, qz[, ...]" (ground-truth CSV)
 };
 
 struct Trajectory {
@@ -47,15 +47,20 @@ TrajectoryFormat DetectTrajectoryFormat(const std::filesystem::path& path);
 // rotations that are not orthonormal (KITTI, tolerance 1e-4 on R^T R - I,
 // re-orthonormalised after the check) and quaternions far from unit norm
 // (|1 - |q|| > 1e-3, normalised after the check) are errors. Poses must be
-// in non-decreasing time (or frame index) order.
+// in strictly increasing time (TUM, EuRoC) or frame index (KITTI-indexed)
+// order: a duplicate or a step back is an error. KITTI-indexed also accepts
+// index + 16 numbers (KITTI-360 cam0_to_world.txt, last row 0 0 0 1).
 Trajectory ReadTrajectory(const std::filesystem::path& path, TrajectoryFormat format);
 
-// Reads a KITTI-style times file (one time in seconds per line) and sets
-// t_ns of every pose of a KITTI trajectory by frame index. Throws when a
-// frame index has no time.
+// Reads a KITTI-style times file (one time per line, line i = frame i: either
+// seconds, as KITTI times.txt, or "YYYY-MM-DD HH:MM:SS.fraction" taken as UTC,
+// as KITTI-360 timestamps.txt) and sets t_ns of every pose of a KITTI
+// trajectory by frame index. Throws when a frame index has no time or the
+// times do not increase.
 void ApplyTimesFile(const std::filesystem::path& times_path, Trajectory* trajectory);
 
 // Writes atomically. Numbers round-trip exactly (shortest representation).
-void WriteTrajectory(const std::filesystem::path& path, const Trajectory& trajectory, TrajectoryFormat format);
+void WriteTrajectory(const std::filesystem::path& path, const Trajectory& trajectory,
+                     TrajectoryFormat format);
 
 }  // namespace mcvo
