@@ -1,0 +1,274 @@
+// Config JSON <-> PipelineOptions. One Visit() per options struct lists its
+// keys in file order; a reading and a writing visitor walk the same lists, so
+// the parser, the writer and the unknown-key check cannot disagree.
+#include "mcvo/config/config.h"
+
+#include <limits>
+
+#include "mcvo/io/json_util.h"
+#include "mcvo/util/error.h"
+#include "mcvo/util/file.h"
+
+namespace mcvo {
+namespace {
+
+using io_internal::JoinPath;
+using io_internal::Json;
+using io_internal::JsonReader;
+using OJson = nlohmann::ordered_json;
+
+template <typename V>
+void Visit(V& v, ClaheOptions* o) {
+  v.Field("enabled", &o->enabled);
+  v.Field("clip_limit", &o->clip_limit);
+  v.Field("tile_grid", &o->tile_grid);
+}
+
+template <typename V>
+void Visit(V& v, LkOptions* o) {
+  v.Field("window_px", &o->window_px);
+  v.Field("pyramid_levels", &o->pyramid_levels);
+  v.Field("max_iterations", &o->max_iterations);
+  v.Field("forward_backward_check", &o->forward_backward_check);
+  v.Field("forward_backward_threshold_px", &o->forward_backward_threshold_px);
+}
+
+template <typename V>
+void Visit(V& v, SuperPointOptions* o) {
+  v.Field("downscale", &o->downscale);
+  v.Field("confidence_threshold", &o->confidence_threshold);
+  v.Field("nms_radius_px", &o->nms_radius_px);
+  v.Field("border_px", &o->border_px);
+}
+
+template <typename V>
+void Visit(V& v, FrontendOptions* o) {
+  v.Enum("detector", &o->detector, kDetectorTypeNames);
+  v.Field("model_path", &o->model_path);
+  v.Field("max_features_pinhole", &o->max_features_pinhole);
+  v.Field("max_features_fisheye", &o->max_features_fisheye);
+  v.Field("min_distance_px", &o->min_distance_px);
+  v.Enum("selection", &o->selection, kFeatureSelectionNames);
+  v.Field("candidate_factor", &o->candidate_factor);
+  v.Field("ransac_threshold_px", &o->ransac_threshold_px);
+  v.Field("ransac_focal_px", &o->ransac_focal_px);
+  v.Section("clahe", &o->clahe);
+  v.Section("lk", &o->lk);
+  v.Section("superpoint", &o->superpoint);
+}
+
+template <typename V>
+void Visit(V& v, InitializerOptions* o) {
+  v.Field("window_size", &o->window_size);
+  v.Field("min_correspondences", &o->min_correspondences);
+  v.Field("min_parallax_px", &o->min_parallax_px);
+  v.Field("min_cameras_passing", &o->min_cameras_passing);
+  v.NamesOrAll("required_cameras", &o->required_cameras);
+  v.Field("scale_initial_guess", &o->scale_initial_guess);
+}
+
+template <typename V>
+void Visit(V& v, BackendOptions* o) {
+  v.Field("window_size", &o->window_size);
+  v.Enum("solver", &o->solver, kSolverTypeNames);
+  v.Field("max_iterations", &o->max_iterations);
+  v.Field("max_solver_time_s", &o->max_solver_time_s);
+  v.Enum("loss", &o->loss, kLossTypeNames);
+  v.Field("loss_scale", &o->loss_scale);
+  v.Field("reprojection_sigma_px", &o->reprojection_sigma_px);
+  v.Field("virtual_focal_px", &o->virtual_focal_px);
+  v.Field("init_depth_m", &o->init_depth_m);
+  v.Field("min_observations", &o->min_observations);
+  v.Field("keyframe_parallax_px", &o->keyframe_parallax_px);
+  v.Field("keyframe_min_tracked", &o->keyframe_min_tracked);
+  v.Field("scale_correction_period", &o->scale_correction_period);
+  v.Field("refine_extrinsics", &o->refine_extrinsics);
+}
+
+template <typename V>
+void Visit(V& v, LoopOptions* o) {
+  v.Field("enabled", &o->enabled);
+  v.Field("vocabulary_path", &o->vocabulary_path);
+  v.Field("features_per_camera", &o->features_per_camera);
+  v.Field("exclude_recent_keyframes", &o->exclude_recent_keyframes);
+  v.Field("min_score", &o->min_score);
+  v.Field("min_camera_fraction", &o->min_camera_fraction);
+}
+
+template <typename V>
+void Visit(V& v, RuntimeOptions* o) {
+  v.Field("threads", &o->threads);
+  v.Field("seed", &o->seed);
+  v.Field("deterministic", &o->deterministic);
+}
+
+template <typename V>
+void Visit(V& v, EvalOptions* o) {
+  v.Enum("align", &o->align, kAlignmentModeNames);
+  v.Field("max_dt_s", &o->association.max_dt_s);
+  v.Field("align_num_poses", &o->align_num_poses);
+  v.Field("rpe_lengths_m", &o->rpe_lengths_m);
+  v.Field("rpe_length_percents", &o->rpe_length_percents);
+  v.Field("rpe_length_tolerance", &o->rpe_length_tolerance);
+}
+
+template <typename V>
+void Visit(V& v, PipelineOptions* o) {
+  v.Section("frontend", &o->frontend);
+  v.Section("initializer", &o->initializer);
+  v.Section("backend", &o->backend);
+  v.Section("loop", &o->loop);
+  v.Section("runtime", &o->runtime);
+  v.Section("eval", &o->eval);
+}
+
+// Overlays the keys present in one JSON object onto a section.
+class ReadVisitor {
+ public:
+  ReadVisitor(const JsonReader& reader, const Json& object, std::string path)
+      : reader_(reader), object_(object), path_(std::move(path)) {}
+
+  void Field(const char* key, bool* value) {
+    if (const Json* j = Find(key)) *value = reader_.Bool(*j, Path(key));
+  }
+  void Field(const char* key, int* value) {
+    if (const Json* j = Find(key)) {
+      *value = static_cast<int>(
+          reader_.Integer(*j, Path(key), std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
+    }
+  }
+  void Field(const char* key, int64_t* value) {
+    if (const Json* j = Find(key)) {
+      *value = reader_.Integer(*j, Path(key), std::numeric_limits<int64_t>::min(),
+                               std::numeric_limits<int64_t>::max());
+    }
+  }
+  void Field(const char* key, double* value) {
+    if (const Json* j = Find(key)) *value = reader_.Number(*j, Path(key));
+  }
+  void Field(const char* key, std::string* value) {
+    if (const Json* j = Find(key)) *value = reader_.String(*j, Path(key));
+  }
+  void Field(const char* key, std::vector<double>* value) {
+    if (const Json* j = Find(key)) *value = reader_.Numbers(*j, Path(key));
+  }
+  template <typename E, size_t N>
+  void Enum(const char* key, E* value, const EnumName<E> (&table)[N]) {
+    const Json* j = Find(key);
+    if (j == nullptr) return;
+    const std::string name = reader_.String(*j, Path(key));
+    std::string valid;
+    for (const EnumName<E>& entry : table) {
+      if (name == entry.name) {
+        *value = entry.value;
+        return;
+      }
+      valid += std::string(valid.empty() ? "" : ", ") + "\"" + entry.name + "\"";
+    }
+    reader_.Fail(Path(key), "unknown value \"" + name + "\" (valid: " + valid + ")");
+  }
+  void NamesOrAll(const char* key, std::vector<std::string>* value) {
+    const Json* j = Find(key);
+    if (j == nullptr) return;
+    if (j->is_string() && j->get<std::string>() == "all") {
+      value->clear();
+      return;
+    }
+    if (!j->is_array())
+      reader_.Fail(Path(key),
+                   "expected \"all\" or an array of camera names, got " + io_internal::DescribeJson(*j));
+    value->clear();
+    for (size_t i = 0; i < j->size(); ++i) value->push_back(reader_.String((*j)[i], JoinPath(Path(key), i)));
+  }
+  template <typename S>
+  void Section(const char* key, S* section) {
+    const Json* j = Find(key);
+    if (j == nullptr) return;
+    reader_.ExpectObject(*j, Path(key));
+    ReadVisitor sub(reader_, *j, Path(key));
+    Visit(sub, section);
+    sub.RejectUnknownKeys();
+  }
+
+  void RejectUnknownKeys() const {
+    std::vector<std::string> valid(keys_.begin(), keys_.end());
+    reader_.CheckKeys(object_, path_, valid, {});
+  }
+
+ private:
+  const Json* Find(const char* key) {
+    keys_.emplace_back(key);
+    const auto it = object_.find(key);
+    return it == object_.end() ? nullptr : &*it;
+  }
+  std::string Path(const char* key) const { return JoinPath(path_, key); }
+
+  const JsonReader& reader_;
+  const Json& object_;
+  std::string path_;
+  std::vector<std::string> keys_;  // every key of the section, in file order
+};
+
+class WriteVisitor {
+ public:
+  template <typename T>
+  void Field(const char* key, T* value) {
+    object_[key] = *value;
+  }
+  template <typename E, size_t N>
+  void Enum(const char* key, E* value, const EnumName<E> (&table)[N]) {
+    object_[key] = EnumToName(table, *value);
+  }
+  void NamesOrAll(const char* key, std::vector<std::string>* value) {
+    if (value->empty()) {
+      object_[key] = "all";
+    } else {
+      object_[key] = *value;
+    }
+  }
+  template <typename S>
+  void Section(const char* key, S* section) {
+    WriteVisitor sub;
+    Visit(sub, section);
+    object_[key] = std::move(sub.object_);
+  }
+  OJson& object() { return object_; }
+
+ private:
+  OJson object_ = OJson::object();
+};
+
+}  // namespace
+
+PipelineOptions ParsePipelineOptions(const std::string& json_text, const std::string& source) {
+  const JsonReader reader(source);
+  const Json root = io_internal::ParseJson(json_text, source);
+  reader.ExpectObject(root, "");
+  PipelineOptions options;
+  ReadVisitor visitor(reader, root, "");
+  Visit(visitor, &options);
+  visitor.RejectUnknownKeys();
+  try {
+    options.Check();
+  } catch (const InputError& e) {
+    throw InputError(source + ": " + e.what());
+  }
+  return options;
+}
+
+PipelineOptions ReadPipelineOptions(const std::filesystem::path& path) {
+  return ParsePipelineOptions(ReadFileToString(path), path.string());
+}
+
+std::string PipelineOptionsToJson(const PipelineOptions& options) {
+  PipelineOptions copy = options;
+  WriteVisitor visitor;
+  Visit(visitor, &copy);
+  return io_internal::PrettyJson(visitor.object());
+}
+
+void WritePipelineOptions(const std::filesystem::path& path, const PipelineOptions& options) {
+  WriteFileAtomic(path, PipelineOptionsToJson(options));
+}
+
+}  // namespace mcvo
