@@ -51,7 +51,7 @@ std::optional<Sim3d> AlignUmeyama(const std::vector<Eigen::Vector3d>& src,
   if (!(var_s > 0.0) || !(var_d > 0.0)) return std::nullopt;
 
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::Vector3d sigma = svd.singularValues();  // decreasing, >= 0
+  const Eigen::Vector3d& sigma = svd.singularValues();  // decreasing, >= 0
   if (!(sigma(0) > 0.0)) return std::nullopt;
   const Eigen::Matrix3d& u = svd.matrixU();
   const Eigen::Matrix3d& v = svd.matrixV();
