@@ -13,7 +13,8 @@ int RunVersion(int argc, const char* const* argv) {
   ArgParser args("mcvo version", "Prints the mcvo version and the library versions it was built with.");
   if (!args.Parse(argc, argv)) return 0;
   std::cout << "mcvo " << MCVO_VERSION << "\n"
-            << "eigen " << EIGEN_WORLD_VERSION << "." << EIGEN_MAJOR_VERSION << "." << EIGEN_MINOR_VERSION << "\n";
+            << "eigen " << EIGEN_WORLD_VERSION << "." << EIGEN_MAJOR_VERSION << "." << EIGEN_MINOR_VERSION
+            << "\n";
   return 0;
 }
 

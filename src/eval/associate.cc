@@ -96,8 +96,7 @@ std::string_view AssociationModeName(AssociationMode mode) {
 
 void AssociationOptions::Check() const {
   if (!std::isfinite(max_dt_s) || max_dt_s < 0.0 || max_dt_s > 1e6) {
-    throw UsageError(
-        StrCat("max_dt_s: expected a time in [0, 1e6] s, got ", FormatDouble(max_dt_s)));
+    throw UsageError(StrCat("max_dt_s: expected a time in [0, 1e6] s, got ", FormatDouble(max_dt_s)));
   }
 }
 

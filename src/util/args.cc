@@ -29,17 +29,18 @@ void ArgParser::AddInt(const std::string& name, int* value, const std::string& h
 }
 
 void ArgParser::AddDouble(const std::string& name, double* value, const std::string& help, bool required) {
-  options_.push_back({name, "X", help, required, false, false, FormatDouble(*value),
-                      [value, name](const std::string& text) {
-                        const std::optional<double> parsed = ParseDouble(text);
-                        if (!parsed || !std::isfinite(*parsed))
-                          throw UsageError("--" + name + ": expected a finite number, got '" + text + "'");
-                        *value = *parsed;
-                      }});
+  options_.push_back(
+      {name, "X", help, required, false, false, FormatDouble(*value), [value, name](const std::string& text) {
+         const std::optional<double> parsed = ParseDouble(text);
+         if (!parsed || !std::isfinite(*parsed))
+           throw UsageError("--" + name + ": expected a finite number, got '" + text + "'");
+         *value = *parsed;
+       }});
 }
 
 void ArgParser::AddFlag(const std::string& name, bool* value, const std::string& help) {
-  options_.push_back({name, "", help, false, true, false, "", [value](const std::string&) { *value = true; }});
+  options_.push_back(
+      {name, "", help, false, true, false, "", [value](const std::string&) { *value = true; }});
 }
 
 ArgParser::Option* ArgParser::Find(const std::string& name) {
@@ -63,7 +64,8 @@ bool ArgParser::Parse(int argc, const char* const* argv) {
       std::cout << Help();
       return false;
     }
-    if (arg.rfind("--", 0) != 0) throw UsageError(std::string("unexpected argument '" + arg + "' (see --help)"));
+    if (arg.rfind("--", 0) != 0)
+      throw UsageError(std::string("unexpected argument '" + arg + "' (see --help)"));
     std::string name = arg.substr(2);
     std::optional<std::string> inline_value;
     if (const size_t eq = name.find('='); eq != std::string::npos) {
@@ -86,7 +88,8 @@ bool ArgParser::Parse(int argc, const char* const* argv) {
     option->set(*inline_value);
   }
   for (const Option& option : options_) {
-    if (option.required && !option.given) throw UsageError(std::string("--" + option.name + " is required (see --help)"));
+    if (option.required && !option.given)
+      throw UsageError(std::string("--" + option.name + " is required (see --help)"));
   }
   return true;
 }
@@ -96,11 +99,15 @@ std::string ArgParser::Help() const {
   out << "usage: " << usage_name_ << " [options]\n\n" << summary_ << "\n\noptions:\n";
   for (const Option& option : options_) {
     std::string left = "  --" + option.name + (option.meta.empty() ? "" : " " + option.meta);
-    if (left.size() < 28) left.resize(28, ' ');
-    else left += "\n" + std::string(28, ' ');
+    if (left.size() < 28)
+      left.resize(28, ' ');
+    else
+      left += "\n" + std::string(28, ' ');
     out << left << option.help;
-    if (option.required) out << " (required)";
-    else if (!option.is_flag && !option.default_text.empty()) out << " [default: " << option.default_text << "]";
+    if (option.required)
+      out << " (required)";
+    else if (!option.is_flag && !option.default_text.empty())
+      out << " [default: " << option.default_text << "]";
     out << "\n";
   }
   out << "  --help                    print this help and exit\n";

@@ -46,7 +46,8 @@ void WriteFileAtomic(const std::filesystem::path& path, const std::string& conte
 
 std::string ReadFileToString(const std::filesystem::path& path) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) MCVO_THROW_INPUT(path.string(), ": is a directory, expected a file");
+  if (std::filesystem::is_directory(path, ec))
+    MCVO_THROW_INPUT(path.string(), ": is a directory, expected a file");
   std::ifstream in(path, std::ios::in | std::ios::binary);
   if (!in) MCVO_THROW_INPUT(path.string(), ": cannot open for reading");
   std::ostringstream content;

@@ -82,8 +82,8 @@ std::string FormatDouble(double value) {
 std::string FormatFixed(double value, int decimals) {
   if (!std::isfinite(value)) return FormatDouble(value);
   std::array<char, 512> buffer{};
-  const auto [ptr, ec] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), value,
-                                       std::chars_format::fixed, decimals);
+  const auto [ptr, ec] =
+      std::to_chars(buffer.data(), buffer.data() + buffer.size(), value, std::chars_format::fixed, decimals);
   if (ec != std::errc()) return FormatDouble(value);
   std::string out(buffer.data(), ptr);
   // Print a rounded negative zero ("-0.000") as zero.
@@ -114,8 +114,10 @@ std::optional<int64_t> ParseSecondsToNs(std::string_view text) {
   const std::string_view int_part = text.substr(0, dot);
   std::string_view frac_part = dot == std::string_view::npos ? std::string_view() : text.substr(dot + 1);
   if (int_part.empty() && frac_part.empty()) return std::nullopt;
-  for (char c : int_part) if (c < '0' || c > '9') return std::nullopt;
-  for (char c : frac_part) if (c < '0' || c > '9') return std::nullopt;
+  for (char c : int_part)
+    if (c < '0' || c > '9') return std::nullopt;
+  for (char c : frac_part)
+    if (c < '0' || c > '9') return std::nullopt;
   if (int_part.size() > 10) return std::nullopt;  // > 3e2 years of nanoseconds overflows nothing, but guard
   int64_t seconds = 0;
   for (char c : int_part) seconds = seconds * 10 + (c - '0');

@@ -36,12 +36,12 @@ TEST(ArgParser, RejectsMisuse) {
     args.AddInt("n", &n, "count");
     return args.Parse(static_cast<int>(argv.size()), argv.data());
   };
-  EXPECT_THROW(parse({}), UsageError);                                // missing required
-  EXPECT_THROW(parse({"--path"}), UsageError);                        // missing value
-  EXPECT_THROW(parse({"--path", "a", "--bogus", "1"}), UsageError);   // unknown option
-  EXPECT_THROW(parse({"--path", "a", "--n", "x"}), UsageError);       // not an integer
-  EXPECT_THROW(parse({"--path", "a", "stray"}), UsageError);          // positional
-  EXPECT_THROW(parse({"--path", "a", "--path", "b"}), UsageError);    // twice
+  EXPECT_THROW(parse({}), UsageError);                               // missing required
+  EXPECT_THROW(parse({"--path"}), UsageError);                       // missing value
+  EXPECT_THROW(parse({"--path", "a", "--bogus", "1"}), UsageError);  // unknown option
+  EXPECT_THROW(parse({"--path", "a", "--n", "x"}), UsageError);      // not an integer
+  EXPECT_THROW(parse({"--path", "a", "stray"}), UsageError);         // positional
+  EXPECT_THROW(parse({"--path", "a", "--path", "b"}), UsageError);   // twice
   EXPECT_FALSE(parse({"--help"}));
 }
 

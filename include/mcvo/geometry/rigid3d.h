@@ -16,7 +16,8 @@ struct Rigid3d {
 
   Rigid3d() = default;
   Rigid3d(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) : rotation(q.normalized()), translation(t) {}
-  Rigid3d(const Eigen::Matrix3d& r, const Eigen::Vector3d& t) : rotation(Eigen::Quaterniond(r).normalized()), translation(t) {}
+  Rigid3d(const Eigen::Matrix3d& r, const Eigen::Vector3d& t)
+      : rotation(Eigen::Quaterniond(r).normalized()), translation(t) {}
 
   // From the top 3x4 block of a homogeneous matrix (rotation must be orthonormal).
   static Rigid3d FromMatrix(const Eigen::Matrix<double, 3, 4>& m) {
@@ -48,7 +49,8 @@ struct Rigid3d {
 
 // (a_from_b * b_from_c) = a_from_c.
 inline Rigid3d operator*(const Rigid3d& a_from_b, const Rigid3d& b_from_c) {
-  return Rigid3d(a_from_b.rotation * b_from_c.rotation, a_from_b.rotation * b_from_c.translation + a_from_b.translation);
+  return Rigid3d(a_from_b.rotation * b_from_c.rotation,
+                 a_from_b.rotation * b_from_c.translation + a_from_b.translation);
 }
 
 }  // namespace mcvo

@@ -37,8 +37,7 @@ class UsageError : public std::runtime_error {
 };
 
 namespace internal {
-[[noreturn]] void CheckFailed(const char* file, int line, const char* expr,
-                              const std::string& message);
+[[noreturn]] void CheckFailed(const char* file, int line, const char* expr, const std::string& message);
 
 template <typename... Args>
 std::string StrCat(const Args&... args) {
@@ -57,17 +56,15 @@ std::string StrCat(const Args&... args) {
 }  // namespace mcvo
 
 // Aborts with file:line when an internal invariant does not hold.
-#define MCVO_CHECK(cond)                                                          \
-  do {                                                                            \
-    if (!(cond)) ::mcvo::internal::CheckFailed(__FILE__, __LINE__, #cond, "");    \
+#define MCVO_CHECK(cond)                                                       \
+  do {                                                                         \
+    if (!(cond)) ::mcvo::internal::CheckFailed(__FILE__, __LINE__, #cond, ""); \
   } while (false)
 
 // As MCVO_CHECK, with the streamed arguments appended to the message.
-#define MCVO_CHECK_MSG(cond, ...)                                                 \
-  do {                                                                            \
-    if (!(cond))                                                                  \
-      ::mcvo::internal::CheckFailed(__FILE__, __LINE__, #cond,                    \
-                                    ::mcvo::StrCat(__VA_ARGS__));                 \
+#define MCVO_CHECK_MSG(cond, ...)                                                                       \
+  do {                                                                                                  \
+    if (!(cond)) ::mcvo::internal::CheckFailed(__FILE__, __LINE__, #cond, ::mcvo::StrCat(__VA_ARGS__)); \
   } while (false)
 
 // Throws InputError with the streamed message.

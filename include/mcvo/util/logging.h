@@ -16,8 +16,8 @@ void LogMessage(LogLevel level, const std::string& message);
 
 }  // namespace mcvo
 
-#define MCVO_LOG(level, ...)                                                       \
-  do {                                                                             \
-    if (::mcvo::LogLevel::level >= ::mcvo::GetLogLevel())                          \
-      ::mcvo::LogMessage(::mcvo::LogLevel::level, ::mcvo::StrCat(__VA_ARGS__));    \
+#define MCVO_LOG(level, ...)                                                    \
+  do {                                                                          \
+    if (::mcvo::LogLevel::level >= ::mcvo::GetLogLevel())                       \
+      ::mcvo::LogMessage(::mcvo::LogLevel::level, ::mcvo::StrCat(__VA_ARGS__)); \
   } while (false)
