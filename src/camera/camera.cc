@@ -3,10 +3,12 @@
 #include "mcvo/camera/camera.h"
 
 #include <array>
+#include <cmath>
 #include <utility>
 
 #include "mcvo/camera/models.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/strings.h"
 
 namespace mcvo {
 namespace {
@@ -104,6 +106,29 @@ int Rig::FindCamera(std::string_view camera_name) const {
     if (cameras[i].name == camera_name) return i;
   }
   return -1;
+}
+
+Camera ScaledCamera(const Camera& camera, double scale) {
+  if (!(scale > 0.0 && scale <= 4.0)) {
+    MCVO_THROW_INPUT("image scale must be in (0, 4], got ", FormatDouble(scale));
+  }
+  Camera scaled = camera;
+  scaled.width = static_cast<int>(std::lround(camera.width * scale));
+  scaled.height = static_cast<int>(std::lround(camera.height * scale));
+  if (scaled.width < 1 || scaled.height < 1) {
+    MCVO_THROW_INPUT("camera ", camera.name, ": image scale ", FormatDouble(scale), " leaves no pixels (",
+                     camera.width, " x ", camera.height, ")");
+  }
+  const double rx = static_cast<double>(scaled.width) / camera.width;
+  const double ry = static_cast<double>(scaled.height) / camera.height;
+  // Index of fx (or gamma1); fy, cx, cy (or gamma2, u0, v0) follow it.
+  const size_t first = camera.model == CameraModelId::kMei ? 5 : 0;
+  MCVO_CHECK(scaled.params.size() >= first + 4);
+  scaled.params[first + 0] *= rx;
+  scaled.params[first + 1] *= ry;
+  scaled.params[first + 2] = rx * (camera.params[first + 2] + 0.5) - 0.5;
+  scaled.params[first + 3] = ry * (camera.params[first + 3] + 0.5) - 0.5;
+  return scaled;
 }
 
 }  // namespace mcvo

@@ -72,6 +72,15 @@ struct Camera {
   double MeanFocalLength() const;
 };
 
+// The camera seeing the same scene in images resized by `scale` (0.5: half
+// width and height): image size rounded to whole pixels, focal lengths and
+// principal point scaled by the actual per-axis ratio, in OpenCV's
+// pixel-centre convention (c' = r (c + 0.5) - 0.5). Distortion is unchanged
+// (it acts on normalised coordinates). The mask path is kept (a mask must be
+// resized by whoever reads it). Throws InputError when scale is not in
+// (0, 4] or the image would be empty.
+Camera ScaledCamera(const Camera& camera, double scale);
+
 // A rigid rig of N >= 1 cameras with unique names. The rig frame is the body
 // frame of the dataset (KITTI-360: the GPS/IMU pose frame).
 struct Rig {
