@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -39,6 +40,13 @@ struct BoxSpec {
   bool with_bottom = false;
   uint32_t texture_seed = 0;
 };
+
+// The faces of `box` as quads, in the order +x, +y, -x, -y (the sides, in the
+// box's own frame before the yaw), top, bottom (when with_bottom). Face k gets
+// the texture seed BoxFaceSeed(box.texture_seed, k), so two boxes with the
+// same spec look the same.
+std::vector<Quad> MakeBoxQuads(const BoxSpec& box);
+uint32_t BoxFaceSeed(uint32_t box_seed, int face);
 
 struct Hit {
   double distance = 0.0;  // along the unit ray direction, metres
@@ -80,19 +88,53 @@ class Scene {
   std::optional<Hit> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
                                int64_t t_ns, double min_distance = 1e-4, double max_distance = 1e4) const;
 
+  // Reference implementation for tests: the same ray-quad test over every
+  // quad without the BVH. Gives exactly the result of Intersect (ties in
+  // distance go to the lower quad index in both).
+  std::optional<Hit> IntersectBruteForce(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                                         int64_t t_ns, double min_distance = 1e-4,
+                                         double max_distance = 1e4) const;
+
+  int num_bvh_nodes() const { return static_cast<int>(nodes_.size()); }
+
   const std::vector<Quad>& quads() const { return quads_; }
   const std::vector<MovingObject>& moving_objects() const { return moving_objects_; }
 
  private:
+  // Bounding-volume node. Boxes are stored in float, rounded outwards and
+  // padded, so they always contain their quads (a conservative slab test).
   struct Node {
-    Eigen::Vector3d box_min, box_max;
-    int first = 0;   // leaf: first index into order_; inner: index of the left child
-    int count = 0;   // leaf: number of quads; inner: 0
+    float box_min[3];
+    float box_max[3];
+    int first = 0;  // leaf: first index into accel_; inner: index of the left child (right = left + 1)
+    int count = 0;  // leaf: number of quads; inner: 0
   };
+  // A quad prepared for the ray test: unit plane normal along axis_u x axis_v
+  // and the dual axes axis_u / |axis_u|^2, axis_v / |axis_v|^2
+  // that give the rectangle coordinates a, b in [0, 1] of a plane point.
+  struct QuadAccel {
+    Eigen::Vector3d origin;
+    Eigen::Vector3d normal;
+    Eigen::Vector3d dual_u;
+    Eigen::Vector3d dual_v;
+    double length_u = 0.0;
+    double length_v = 0.0;
+    int index = 0;  // into quads_ (or the moving object's quads_in_object)
+  };
+  struct MovingAccel {
+    std::vector<QuadAccel> quads;
+    Eigen::Vector3d box_min, box_max;      // object frame, padded
+    Eigen::Vector3d swept_min, swept_max;  // world frame, over the whole path: a cheap first rejection
+  };
+  static QuadAccel MakeAccel(const Quad& quad, int index);
+  void IntersectMoving(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, int64_t t_ns,
+                       double min_distance, std::optional<Hit>* best) const;
+
   std::vector<Quad> quads_;
-  std::vector<int> order_;  // quad indices in leaf order
+  std::vector<QuadAccel> accel_;  // in leaf order
   std::vector<Node> nodes_;
   std::vector<MovingObject> moving_objects_;
+  std::vector<MovingAccel> moving_accel_;
   bool built_ = false;
 };
 
@@ -123,5 +165,25 @@ SceneWithRoute BuildIndoorScene(uint64_t seed);
 SceneWithRoute BuildOpenScene(uint64_t seed);
 // "urban", "indoor", "open"; throws InputError listing the names otherwise.
 SceneWithRoute BuildScene(const std::string& name, uint64_t seed);
+
+// Route statistics: length of the waypoint polyline (closing segment
+// included when closed) and the number of left and right turns (direction
+// changes of more than 30 degrees at a waypoint).
+struct RouteStats {
+  double length_m = 0.0;
+  int left_turns = 0;
+  int right_turns = 0;
+};
+RouteStats ComputeRouteStats(const SceneWithRoute& scene);
+
+// One line per scene: quad and moving-object counts, quads per material,
+// route length and turns.
+std::string SceneSummary(const SceneWithRoute& scene);
+
+// Ground-truth structure: a CSV file with a header line and one line per
+// static quad: index, material name, origin xyz, axis_u xyz, axis_v xyz,
+// texture seed. Numbers are written round-trip exact (FormatDouble);
+// deterministic; written atomically. Throws InputError when not writable.
+void WriteSceneCsv(const std::filesystem::path& path, const Scene& scene);
 
 }  // namespace mcvo::synth
