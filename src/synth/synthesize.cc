@@ -1,0 +1,267 @@
+#include "mcvo/synth/synthesize.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <string_view>
+#include <system_error>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "mcvo/io/frame_table.h"
+#include "mcvo/io/rig_io.h"
+#include "mcvo/io/trajectory_io.h"
+#include "mcvo/synth/scene.h"
+#include "mcvo/synth/trajectory.h"
+#include "mcvo/util/error.h"
+#include "mcvo/util/file.h"
+#include "mcvo/util/strings.h"
+
+namespace mcvo::synth {
+namespace internal {
+// Generated from config/rigs/*.json (src/synth/embedded_rigs.cc.in).
+const std::vector<std::pair<std::string_view, std::string_view>>& EmbeddedRigFiles();
+}  // namespace internal
+
+namespace {
+
+// Removes a folder on scope exit unless released: a failed run leaves nothing.
+class TemporaryFolder {
+ public:
+  explicit TemporaryFolder(std::filesystem::path path) : path_(std::move(path)) {}
+  ~TemporaryFolder() {
+    if (!path_.empty()) {
+      std::error_code ec;
+      std::filesystem::remove_all(path_, ec);
+    }
+  }
+  TemporaryFolder(const TemporaryFolder&) = delete;
+  TemporaryFolder& operator=(const TemporaryFolder&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  void Release() { path_.clear(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+std::string FrameFileName(int frame) {
+  std::ostringstream name;
+  name << std::setw(6) << std::setfill('0') << frame << ".png";
+  return name.str();
+}
+
+void WritePng(const std::filesystem::path& path, const cv::Mat& image) {
+  // Fixed compression settings: the same pixels always give the same bytes.
+  const std::vector<int> params = {cv::IMWRITE_PNG_COMPRESSION, 3};
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path.string(), image, params);
+  } catch (const cv::Exception& e) {
+    MCVO_THROW_INPUT(path.string(), ": cannot write PNG: ", e.what());
+  }
+  if (!ok) MCVO_THROW_INPUT(path.string(), ": cannot write PNG");
+}
+
+// Valid-pixel mask of a camera: 255 where the pixel centre unprojects (inside
+// the model's image of its domain), 0 elsewhere. Empty when all are valid.
+cv::Mat DomainMask(const Camera& camera) {
+  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(255));
+  bool any_invalid = false;
+  for (int y = 0; y < camera.height; ++y) {
+    auto* row = mask.ptr<uint8_t>(y);
+    for (int x = 0; x < camera.width; ++x) {
+      if (!camera.Unproject(Eigen::Vector2d(x, y))) {
+        row[x] = 0;
+        any_invalid = true;
+      }
+    }
+  }
+  return any_invalid ? mask : cv::Mat();
+}
+
+Rig ResolveRig(const SynthOptions& options) {
+  Rig rig = options.preset.empty() ? ReadRig(options.rig_path) : PresetRig(options.preset);
+  for (Camera& camera : rig.cameras) {
+    // A user mask describes the user's real camera (a car hood, ...); the
+    // synthetic images get the model's own valid-pixel mask instead.
+    camera.mask_path.clear();
+    if (options.image_scale != 1.0) camera = ScaledCamera(camera, options.image_scale);
+  }
+  return rig;
+}
+
+std::string MetaJson(const SynthOptions& options, const std::string& scene_name, const SceneWithRoute& scene,
+                     double route_length_m, const Rig& rig, int frames) {
+  nlohmann::ordered_json j;
+  j["generator"] = "mcvo synth";
+  j["preset"] = options.preset;
+  j["rig"] = options.preset.empty() ? options.rig_path.filename().string() : "preset:" + options.preset;
+  j["scene"] = scene_name;
+  j["seed"] = options.seed;
+  j["frames"] = frames;
+  j["frame_rate_hz"] = options.frame_rate_hz;
+  j["first_t_ns"] = options.first_t_ns;
+  j["image_scale"] = options.image_scale;
+  j["route_length_m"] = route_length_m;
+  j["route_closed"] = scene.route_closed;
+  j["samples_per_axis"] = options.render.samples_per_axis;
+  const RenderEffects& e = options.render.effects;
+  j["effects"] = {{"noise_sigma", e.noise_sigma},
+                  {"exposure_changes", e.exposure_changes},
+                  {"vignetting", e.vignetting},
+                  {"motion_blur_samples", e.motion_blur_samples},
+                  {"exposure_time_s", e.exposure_time_s},
+                  {"moving_objects", scene.scene.moving_objects().size()},
+                  {"blackout_camera", e.blackout_camera < 0 ? std::string() : rig.cameras[e.blackout_camera].name},
+                  {"blackout_first_frame", e.blackout_first_frame},
+                  {"blackout_num_frames", e.blackout_num_frames}};
+  nlohmann::ordered_json cameras = nlohmann::ordered_json::array();
+  for (const Camera& camera : rig.cameras) cameras.push_back(camera.name);
+  j["cameras"] = cameras;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace
+
+const std::vector<SynthPreset>& SynthPresets() {
+  static const std::vector<SynthPreset> presets = {
+      {"irregular5", "irregular5", "urban",
+       "5 cameras at odd angles and offsets, two fisheye (Kannala-Brandt, double sphere)"},
+      {"kitti360", "kitti360", "urban", "the real KITTI-360 rig: 2 rectified pinhole 1408x376 + 2 MEI fisheye 1400x1400"},
+      {"kitti360-3cam", "kitti360_3cam", "urban", "KITTI-360 image_00 + both fisheyes (no two views overlap)"},
+      {"multicam6", "multicam6", "indoor", "MultiCamData-like: 4 forward + 2 side 720x540 cameras"},
+      {"stereo", "kitti360_stereo", "urban", "KITTI-360 rectified stereo pair image_00 + image_01"},
+  };
+  return presets;
+}
+
+const SynthPreset& FindPreset(const std::string& preset_name) {
+  std::string known;
+  for (const SynthPreset& preset : SynthPresets()) {
+    if (preset.name == preset_name) return preset;
+    known += (known.empty() ? "" : ", ") + preset.name;
+  }
+  MCVO_THROW_INPUT("unknown preset '", preset_name, "' (known: ", known, ")");
+}
+
+Rig PresetRig(const std::string& preset_name) {
+  const SynthPreset& preset = FindPreset(preset_name);
+  for (const auto& [name, text] : internal::EmbeddedRigFiles()) {
+    if (name == preset.rig_file) {
+      return ParseRigJson(std::string(text), "config/rigs/" + preset.rig_file + ".json (compiled in)", "");
+    }
+  }
+  MCVO_CHECK_MSG(false, "preset rig file not compiled in: ", preset.rig_file);
+  return {};
+}
+
+void SynthOptions::Check() const {
+  if (preset.empty() == rig_path.empty()) throw UsageError("give either --preset or --rig");
+  if (!rig_path.empty() && scene.empty()) throw UsageError("--rig needs --scene (urban, indoor or open)");
+  if (frames < 0) throw UsageError(StrCat("frames: must be >= 0, got ", frames));
+  if (!(image_scale > 0.0 && image_scale <= 4.0)) {
+    throw UsageError(StrCat("image_scale: must be in (0, 4], got ", FormatDouble(image_scale)));
+  }
+  if (!(frame_rate_hz > 0.0 && frame_rate_hz <= 1000.0)) {
+    throw UsageError(StrCat("frame_rate_hz: must be in (0, 1000], got ", FormatDouble(frame_rate_hz)));
+  }
+  render.Check();
+}
+
+SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path& out_dir,
+                        const std::function<void(int, int)>& progress) {
+  options.Check();
+  std::error_code ec;
+  if (std::filesystem::exists(out_dir, ec)) {
+    if (!std::filesystem::is_directory(out_dir, ec)) MCVO_THROW_INPUT(out_dir.string(), ": exists and is not a folder");
+    if (!std::filesystem::is_empty(out_dir, ec) && !options.force) {
+      MCVO_THROW_INPUT(out_dir.string(), ": folder exists and is not empty (use --force to replace it)");
+    }
+  }
+  const std::string scene_name = options.scene.empty() ? FindPreset(options.preset).scene : options.scene;
+  Rig rig = ResolveRig(options);
+  if (options.render.effects.blackout_camera >= rig.NumCameras()) {
+    throw UsageError(StrCat("blackout camera index ", options.render.effects.blackout_camera, " but the rig has ",
+                            rig.NumCameras(), " cameras"));
+  }
+  const SceneWithRoute world = BuildScene(scene_name, options.seed);
+  const SmoothTrajectory trajectory({world.waypoints, world.route_closed, world.style, world.speed_mps, 2.5,
+                                     world.rig_height_m, options.seed});
+  const double period_s = 1.0 / options.frame_rate_hz;
+  const int64_t period_ns = std::llround(period_s * 1e9);
+  const int frames = options.frames > 0
+                         ? options.frames
+                         : std::max(1, static_cast<int>(std::floor(static_cast<double>(trajectory.DurationNs()) /
+                                                                   static_cast<double>(period_ns))));
+
+  // Everything is written below `staging` and renamed onto out_dir at the end.
+  const std::filesystem::path absolute_out = std::filesystem::absolute(out_dir).lexically_normal();
+  const std::filesystem::path parent = absolute_out.parent_path();
+  CreateDirectories(parent);
+  TemporaryFolder staging(parent / (absolute_out.filename().string() + ".tmp-" + std::to_string(::getpid())));
+  std::filesystem::remove_all(staging.path(), ec);
+  CreateDirectories(staging.path() / "structure");
+
+  FrameTable table;
+  for (Camera& camera : rig.cameras) {
+    table.camera_names.push_back(camera.name);
+    CreateDirectories(staging.path() / "images" / camera.name);
+    const cv::Mat mask = DomainMask(camera);
+    if (!mask.empty()) {
+      CreateDirectories(staging.path() / "masks");
+      camera.mask_path = (staging.path() / "masks" / (camera.name + ".png")).string();
+      WritePng(camera.mask_path, mask);
+    }
+  }
+
+  SynthSummary summary;
+  summary.cameras = rig.NumCameras();
+  summary.frames = frames;
+  summary.route_length_m = trajectory.LengthM();
+  for (const Camera& camera : rig.cameras) summary.megapixels_per_frame += camera.width * camera.height * 1e-6;
+
+  Trajectory ground_truth;
+  ground_truth.has_time = true;
+  const auto start = std::chrono::steady_clock::now();
+  for (int frame = 0; frame < frames; ++frame) {
+    const int64_t t_rel_ns = static_cast<int64_t>(frame) * period_ns;
+    FrameTableRow row;
+    row.t_ns = options.first_t_ns + t_rel_ns;
+    for (int c = 0; c < rig.NumCameras(); ++c) {
+      const cv::Mat image = RenderImage(
+          world.scene, rig, c, [&](int64_t t_ns) { return trajectory.WorldFromRig(t_ns); }, t_rel_ns, frame,
+          options.render);
+      const std::string relative = "images/" + rig.cameras[c].name + "/" + FrameFileName(frame);
+      WritePng(staging.path() / relative, image);
+      row.image_paths.push_back(relative);
+    }
+    table.rows.push_back(std::move(row));
+    StampedPose pose;
+    pose.t_ns = options.first_t_ns + t_rel_ns;
+    pose.frame_index = frame;
+    pose.world_from_body = trajectory.WorldFromRig(t_rel_ns);
+    ground_truth.poses.push_back(pose);
+    if (progress) progress(frame + 1, frames);
+  }
+  summary.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  WriteRig(staging.path() / "rig.json", rig);
+  WriteFrameTable(staging.path() / "frames.csv", table);
+  WriteTrajectory(staging.path() / "groundtruth.tum", ground_truth, TrajectoryFormat::kTum);
+  WriteSceneCsv(staging.path() / "structure" / "scene_quads.csv", world.scene);
+  WriteFileAtomic(staging.path() / "meta.json", MetaJson(options, scene_name, world, trajectory.LengthM(), rig, frames));
+
+  if (std::filesystem::exists(absolute_out, ec)) std::filesystem::remove_all(absolute_out, ec);
+  std::filesystem::rename(staging.path(), absolute_out, ec);
+  if (ec) MCVO_THROW_INPUT(absolute_out.string(), ": cannot move the finished sequence into place: ", ec.message());
+  staging.Release();
+  return summary;
+}
+
+}  // namespace mcvo::synth

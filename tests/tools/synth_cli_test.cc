@@ -1,0 +1,78 @@
+// `mcvo synth` as a user runs it: exit codes and one-line errors.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <sys/wait.h>
+
+#include "mcvo/util/file.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int exit_code = -1;
+  std::string output;
+};
+
+Result RunMcvo(const std::string& args) {
+  const std::string command = std::string(MCVO_BINARY) + " " + args + " 2>&1";
+  Result result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer{};
+  while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) result.output += buffer.data();
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / "mcvo_synth_cli_test" / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir.parent_path());
+  return dir;
+}
+
+TEST(SynthCli, WritesASequence) {
+  const fs::path out = TempDir("ok");
+  const Result r = RunMcvo("synth --preset stereo --frames 2 --image-scale 0.1 --samples 1 --out " + out.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out / "frames.csv"));
+  EXPECT_TRUE(fs::exists(out / "images/image_01/000001.png"));
+}
+
+TEST(SynthCli, BadInputGivesOneLineAndExitCode3) {
+  const fs::path out = TempDir("bad");
+  Result r = RunMcvo("synth --preset nosuch --out " + out.string());
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("unknown preset 'nosuch' (known: irregular5, kitti360"), std::string::npos) << r.output;
+
+  fs::create_directories(out);
+  mcvo::WriteFileAtomic(out / "x.txt", "x");
+  r = RunMcvo("synth --preset stereo --frames 1 --out " + out.string());
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("not empty (use --force"), std::string::npos) << r.output;
+
+  const fs::path rig = out.parent_path() / "broken_rig.json";
+  mcvo::WriteFileAtomic(rig, R"({"cameras": []})");
+  r = RunMcvo("synth --rig " + rig.string() + " --scene urban --out " + (out.parent_path() / "from_rig").string());
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("broken_rig.json"), std::string::npos) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+}
+
+TEST(SynthCli, MisuseGivesExitCode2) {
+  const fs::path out = TempDir("usage");
+  EXPECT_EQ(RunMcvo("synth --out " + out.string()).exit_code, 2);                                // no preset or rig
+  EXPECT_EQ(RunMcvo("synth --preset stereo").exit_code, 2);                                      // no --out
+  EXPECT_EQ(RunMcvo("synth --preset stereo --out " + out.string() + " --samples 0").exit_code, 2);
+  EXPECT_EQ(RunMcvo("synth --preset stereo --out " + out.string() + " --blackout x").exit_code, 2);
+  EXPECT_EQ(RunMcvo("synth --preset stereo --out " + out.string() + " --scene moon").exit_code, 3);
+}
+
+}  // namespace
