@@ -20,9 +20,10 @@ int RunSynth(int argc, const char* const* argv) {
   std::string rig_path, out_dir, blackout;
   int seed = 0;
   bool exposure = false, vignetting = false;
-  ArgParser args("mcvo synth",
-                 "Renders a synthetic multi-camera sequence with exact ground truth into the generic rig dataset\n"
-                 "format (docs/dataset-format.md): rig.json, frames.csv, PNG images, groundtruth.tum, the 3-D scene.");
+  ArgParser args(
+      "mcvo synth",
+      "Renders a synthetic multi-camera sequence with exact ground truth into the generic rig dataset\n"
+      "format (docs/dataset-format.md): rig.json, frames.csv, PNG images, groundtruth.tum, the 3-D scene.");
   args.AddString("preset", &options.preset, "NAME",
                  "kitti360 | kitti360-3cam | stereo | multicam6 | irregular5 (rig + default scene)");
   args.AddString("rig", &rig_path, "FILE", "a rig.json instead of a preset (needs --scene)");
@@ -38,10 +39,12 @@ int RunSynth(int argc, const char* const* argv) {
   args.AddFlag("vignetting", &vignetting, "radial falloff towards the image border");
   args.AddInt("motion-blur", &options.render.effects.motion_blur_samples,
               "average N instants over the exposure time (0: off)");
-  args.AddDouble("exposure-time", &options.render.effects.exposure_time_s, "shutter time for motion blur, seconds");
+  args.AddDouble("exposure-time", &options.render.effects.exposure_time_s,
+                 "shutter time for motion blur, seconds");
   args.AddString("blackout", &blackout, "CAM:FIRST:COUNT",
                  "camera (name or index) renders black for COUNT frames from frame FIRST");
-  args.AddInt("threads", &options.render.threads, "render threads (0: all cores); output is the same for any");
+  args.AddInt("threads", &options.render.threads,
+              "render threads (0: all cores); output is the same for any");
   args.AddFlag("force", &options.force, "replace a non-empty output folder");
   args.AddEpilog(
       "Moving objects are part of the urban scene. Examples:\n"
@@ -82,14 +85,15 @@ int RunSynth(int argc, const char* const* argv) {
   bar.Finish();
   MCVO_LOG(kInfo, "wrote ", summary.frames, " frames x ", summary.cameras, " cameras to ", out_dir, " (",
            FormatFixed(summary.megapixels_per_frame, 2), " Mpx per frame, route ",
-           FormatFixed(summary.route_length_m, 1), " m) in ", FormatFixed(summary.render_seconds, 1), " s: ",
-           FormatFixed(summary.render_seconds / summary.frames, 3), " s per frame, ",
+           FormatFixed(summary.route_length_m, 1), " m) in ", FormatFixed(summary.render_seconds, 1),
+           " s: ", FormatFixed(summary.render_seconds / summary.frames, 3), " s per frame, ",
            FormatFixed(summary.render_seconds / (summary.frames * summary.megapixels_per_frame), 3),
            " s per Mpx");
   return kExitOk;
 }
 
-const CommandRegistrar kRegistrar("synth", {"render a synthetic multi-camera sequence with ground truth", RunSynth});
+const CommandRegistrar kRegistrar("synth",
+                                  {"render a synthetic multi-camera sequence with ground truth", RunSynth});
 
 }  // namespace
 }  // namespace mcvo::tools

@@ -334,7 +334,7 @@ cv::Mat RenderImageAtPoses(const Scene& scene, const Rig& rig, int camera_index,
   }
   const double gain =
       ExposureGain(effects, options.seed, camera_index, t_ns_samples[0] + std::llround(t_mean_ns));
-  const double scale = 255.0 * gain / static_cast<double>(n * n * num_instants);
+  const double scale = 255.0 * gain / (static_cast<double>(n) * n * num_instants);
   const Eigen::Vector3d sun = SunDirection();
   const int samples = n * n;
   const int width = camera.width;
@@ -372,7 +372,7 @@ cv::Mat RenderImageAtPoses(const Scene& scene, const Rig& rig, int camera_index,
         const float* bearing = &rays->bearings[p * samples * 3];
         const double sample_angle = rays->sample_angle_rad[p];
         for (int s = 0; s < samples; ++s) {
-          const float* b = bearing + 3 * s;
+          const float* b = bearing + static_cast<ptrdiff_t>(3) * s;
           if (std::isnan(b[0])) continue;  // outside the model's domain: radiance 0
           const Eigen::Vector3d direction = world_direction(b);
           if (known == nullptr) {

@@ -220,7 +220,7 @@ void Scene::Build() {
   accel_.clear();
   accel_.reserve(n);
   if (n > 0) {
-    nodes_.reserve(2 * n);
+    nodes_.reserve(static_cast<size_t>(2) * n);
     nodes_.emplace_back();
     // Explicit work list of (node, begin, end, depth); children are created
     // in pairs so that right = left + 1.
@@ -256,8 +256,8 @@ void Scene::Build() {
         make_leaf();
         continue;
       }
-      const auto by_axis = [&items](int axis) {
-        return [&items, axis](const BuildItem& a, const BuildItem& b) {
+      const auto by_axis = [](int axis) {
+        return [axis](const BuildItem& a, const BuildItem& b) {
           if (a.centroid[axis] != b.centroid[axis]) return a.centroid[axis] < b.centroid[axis];
           return a.accel < b.accel;
         };

@@ -112,15 +112,16 @@ std::string MetaJson(const SynthOptions& options, const std::string& scene_name,
   j["route_closed"] = scene.route_closed;
   j["samples_per_axis"] = options.render.samples_per_axis;
   const RenderEffects& e = options.render.effects;
-  j["effects"] = {{"noise_sigma", e.noise_sigma},
-                  {"exposure_changes", e.exposure_changes},
-                  {"vignetting", e.vignetting},
-                  {"motion_blur_samples", e.motion_blur_samples},
-                  {"exposure_time_s", e.exposure_time_s},
-                  {"moving_objects", scene.scene.moving_objects().size()},
-                  {"blackout_camera", e.blackout_camera < 0 ? std::string() : rig.cameras[e.blackout_camera].name},
-                  {"blackout_first_frame", e.blackout_first_frame},
-                  {"blackout_num_frames", e.blackout_num_frames}};
+  j["effects"] = {
+      {"noise_sigma", e.noise_sigma},
+      {"exposure_changes", e.exposure_changes},
+      {"vignetting", e.vignetting},
+      {"motion_blur_samples", e.motion_blur_samples},
+      {"exposure_time_s", e.exposure_time_s},
+      {"moving_objects", scene.scene.moving_objects().size()},
+      {"blackout_camera", e.blackout_camera < 0 ? std::string() : rig.cameras[e.blackout_camera].name},
+      {"blackout_first_frame", e.blackout_first_frame},
+      {"blackout_num_frames", e.blackout_num_frames}};
   nlohmann::ordered_json cameras = nlohmann::ordered_json::array();
   for (const Camera& camera : rig.cameras) cameras.push_back(camera.name);
   j["cameras"] = cameras;
@@ -133,8 +134,10 @@ const std::vector<SynthPreset>& SynthPresets() {
   static const std::vector<SynthPreset> presets = {
       {"irregular5", "irregular5", "urban",
        "5 cameras at odd angles and offsets, two fisheye (Kannala-Brandt, double sphere)"},
-      {"kitti360", "kitti360", "urban", "the real KITTI-360 rig: 2 rectified pinhole 1408x376 + 2 MEI fisheye 1400x1400"},
-      {"kitti360-3cam", "kitti360_3cam", "urban", "KITTI-360 image_00 + both fisheyes (no two views overlap)"},
+      {"kitti360", "kitti360", "urban",
+       "the real KITTI-360 rig: 2 rectified pinhole 1408x376 + 2 MEI fisheye 1400x1400"},
+      {"kitti360-3cam", "kitti360_3cam", "urban",
+       "KITTI-360 image_00 + both fisheyes (no two views overlap)"},
       {"multicam6", "multicam6", "indoor", "MultiCamData-like: 4 forward + 2 side 720x540 cameras"},
       {"stereo", "kitti360_stereo", "urban", "KITTI-360 rectified stereo pair image_00 + image_01"},
   };
@@ -179,7 +182,8 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
   options.Check();
   std::error_code ec;
   if (std::filesystem::exists(out_dir, ec)) {
-    if (!std::filesystem::is_directory(out_dir, ec)) MCVO_THROW_INPUT(out_dir.string(), ": exists and is not a folder");
+    if (!std::filesystem::is_directory(out_dir, ec))
+      MCVO_THROW_INPUT(out_dir.string(), ": exists and is not a folder");
     if (!std::filesystem::is_empty(out_dir, ec) && !options.force) {
       MCVO_THROW_INPUT(out_dir.string(), ": folder exists and is not empty (use --force to replace it)");
     }
@@ -187,18 +191,19 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
   const std::string scene_name = options.scene.empty() ? FindPreset(options.preset).scene : options.scene;
   Rig rig = ResolveRig(options);
   if (options.render.effects.blackout_camera >= rig.NumCameras()) {
-    throw UsageError(StrCat("blackout camera index ", options.render.effects.blackout_camera, " but the rig has ",
-                            rig.NumCameras(), " cameras"));
+    throw UsageError(StrCat("blackout camera index ", options.render.effects.blackout_camera,
+                            " but the rig has ", rig.NumCameras(), " cameras"));
   }
   const SceneWithRoute world = BuildScene(scene_name, options.seed);
   const SmoothTrajectory trajectory({world.waypoints, world.route_closed, world.style, world.speed_mps, 2.5,
                                      world.rig_height_m, options.seed});
   const double period_s = 1.0 / options.frame_rate_hz;
   const int64_t period_ns = std::llround(period_s * 1e9);
-  const int frames = options.frames > 0
-                         ? options.frames
-                         : std::max(1, static_cast<int>(std::floor(static_cast<double>(trajectory.DurationNs()) /
-                                                                   static_cast<double>(period_ns))));
+  const int frames =
+      options.frames > 0
+          ? options.frames
+          : std::max(1, static_cast<int>(std::floor(static_cast<double>(trajectory.DurationNs()) /
+                                                    static_cast<double>(period_ns))));
 
   // Everything is written below `staging` and renamed onto out_dir at the end.
   const std::filesystem::path absolute_out = std::filesystem::absolute(out_dir).lexically_normal();
@@ -224,7 +229,8 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
   summary.cameras = rig.NumCameras();
   summary.frames = frames;
   summary.route_length_m = trajectory.LengthM();
-  for (const Camera& camera : rig.cameras) summary.megapixels_per_frame += camera.width * camera.height * 1e-6;
+  for (const Camera& camera : rig.cameras)
+    summary.megapixels_per_frame += camera.width * camera.height * 1e-6;
 
   Trajectory ground_truth;
   ground_truth.has_time = true;
@@ -255,11 +261,13 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
   WriteFrameTable(staging.path() / "frames.csv", table);
   WriteTrajectory(staging.path() / "groundtruth.tum", ground_truth, TrajectoryFormat::kTum);
   WriteSceneCsv(staging.path() / "structure" / "scene_quads.csv", world.scene);
-  WriteFileAtomic(staging.path() / "meta.json", MetaJson(options, scene_name, world, trajectory.LengthM(), rig, frames));
+  WriteFileAtomic(staging.path() / "meta.json",
+                  MetaJson(options, scene_name, world, trajectory.LengthM(), rig, frames));
 
   if (std::filesystem::exists(absolute_out, ec)) std::filesystem::remove_all(absolute_out, ec);
   std::filesystem::rename(staging.path(), absolute_out, ec);
-  if (ec) MCVO_THROW_INPUT(absolute_out.string(), ": cannot move the finished sequence into place: ", ec.message());
+  if (ec)
+    MCVO_THROW_INPUT(absolute_out.string(), ": cannot move the finished sequence into place: ", ec.message());
   staging.Release();
   return summary;
 }

@@ -7,7 +7,10 @@
 namespace mcvo {
 
 ProgressBar::ProgressBar(std::string label, int64_t total, std::string unit)
-    : label_(std::move(label)), unit_(std::move(unit)), total_(total), enabled_(::isatty(STDERR_FILENO) == 1) {
+    : label_(std::move(label)),
+      unit_(std::move(unit)),
+      total_(total),
+      enabled_(::isatty(STDERR_FILENO) == 1) {
   start_ = std::chrono::steady_clock::now();
   last_draw_ = start_ - std::chrono::seconds(1);
 }
@@ -47,8 +50,8 @@ void ProgressBar::Draw(bool force) {
   const double rate = elapsed > 0.0 ? static_cast<double>(done_) / elapsed : 0.0;
   const double eta = rate > 0.0 ? static_cast<double>(total_ - done_) / rate : 0.0;
   std::fprintf(stderr, "\r%s [%s] %lld/%lld %s  %.2f %s/s  ETA %.0f s   ", label_.c_str(), bar.c_str(),
-               static_cast<long long>(done_), static_cast<long long>(total_), unit_.c_str(), rate, unit_.c_str(),
-               eta);
+               static_cast<long long>(done_), static_cast<long long>(total_), unit_.c_str(), rate,
+               unit_.c_str(), eta);
   std::fflush(stderr);
 }
 

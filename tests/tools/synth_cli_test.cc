@@ -1,12 +1,12 @@
 // `mcvo synth` as a user runs it: exit codes and one-line errors.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
 #include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <string>
-#include <sys/wait.h>
 
 #include "mcvo/util/file.h"
 
@@ -40,7 +40,8 @@ fs::path TempDir(const std::string& name) {
 
 TEST(SynthCli, WritesASequence) {
   const fs::path out = TempDir("ok");
-  const Result r = RunMcvo("synth --preset stereo --frames 2 --image-scale 0.1 --samples 1 --out " + out.string());
+  const Result r =
+      RunMcvo("synth --preset stereo --frames 2 --image-scale 0.1 --samples 1 --out " + out.string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out / "frames.csv"));
   EXPECT_TRUE(fs::exists(out / "images/image_01/000001.png"));
@@ -50,7 +51,8 @@ TEST(SynthCli, BadInputGivesOneLineAndExitCode3) {
   const fs::path out = TempDir("bad");
   Result r = RunMcvo("synth --preset nosuch --out " + out.string());
   EXPECT_EQ(r.exit_code, 3) << r.output;
-  EXPECT_NE(r.output.find("unknown preset 'nosuch' (known: irregular5, kitti360"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("unknown preset 'nosuch' (known: irregular5, kitti360"), std::string::npos)
+      << r.output;
 
   fs::create_directories(out);
   mcvo::WriteFileAtomic(out / "x.txt", "x");
@@ -60,7 +62,8 @@ TEST(SynthCli, BadInputGivesOneLineAndExitCode3) {
 
   const fs::path rig = out.parent_path() / "broken_rig.json";
   mcvo::WriteFileAtomic(rig, R"({"cameras": []})");
-  r = RunMcvo("synth --rig " + rig.string() + " --scene urban --out " + (out.parent_path() / "from_rig").string());
+  r = RunMcvo("synth --rig " + rig.string() + " --scene urban --out " +
+              (out.parent_path() / "from_rig").string());
   EXPECT_EQ(r.exit_code, 3) << r.output;
   EXPECT_NE(r.output.find("broken_rig.json"), std::string::npos) << r.output;
   EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
@@ -68,8 +71,8 @@ TEST(SynthCli, BadInputGivesOneLineAndExitCode3) {
 
 TEST(SynthCli, MisuseGivesExitCode2) {
   const fs::path out = TempDir("usage");
-  EXPECT_EQ(RunMcvo("synth --out " + out.string()).exit_code, 2);                                // no preset or rig
-  EXPECT_EQ(RunMcvo("synth --preset stereo").exit_code, 2);                                      // no --out
+  EXPECT_EQ(RunMcvo("synth --out " + out.string()).exit_code, 2);  // no preset or rig
+  EXPECT_EQ(RunMcvo("synth --preset stereo").exit_code, 2);        // no --out
   EXPECT_EQ(RunMcvo("synth --preset stereo --out " + out.string() + " --samples 0").exit_code, 2);
   EXPECT_EQ(RunMcvo("synth --preset stereo --out " + out.string() + " --blackout x").exit_code, 2);
   EXPECT_EQ(RunMcvo("synth --preset stereo --out " + out.string() + " --scene moon").exit_code, 3);

@@ -12,23 +12,23 @@
 namespace mcvo::synth {
 
 enum class Material : uint8_t {
-  kSky,             // not a surface: what a ray that hits nothing sees
-  kAsphalt,         // road surface: fine multi-scale noise, patches, cracks
-  kRoadMarking,     // asphalt with lane lines / crosswalk stripes (quad-local layout)
-  kSidewalk,        // paving slabs with joints
-  kFacadePlaster,   // building facade: plaster with a grid of windows per floor
-  kFacadeBrick,     // building facade: bricks with a grid of windows per floor
-  kShopFront,       // ground floor of a facade: glass, doors, signs, posters
-  kPoster,          // high-texture, unique content (ads, graffiti), for good features
-  kWallPaint,       // indoor wall: nearly textureless paint (long weak-texture segments)
-  kFloorTile,       // indoor floor tiles with grout
-  kCeiling,         // indoor ceiling panels with lights
-  kWood,            // furniture, doors
-  kMetal,           // cabinets, machines, car bodies
-  kGrass,           // open terrain
-  kRock,            // boulders, hills, distant structure
-  kFoliage,         // trees / bushes: high-frequency, high-contrast
-  kMarker,          // test target: a white disc (radius 0.35 of the quad's shorter side) on black, centred
+  kSky,            // not a surface: what a ray that hits nothing sees
+  kAsphalt,        // road surface: fine multi-scale noise, patches, cracks
+  kRoadMarking,    // asphalt with lane lines / crosswalk stripes (quad-local layout)
+  kSidewalk,       // paving slabs with joints
+  kFacadePlaster,  // building facade: plaster with a grid of windows per floor
+  kFacadeBrick,    // building facade: bricks with a grid of windows per floor
+  kShopFront,      // ground floor of a facade: glass, doors, signs, posters
+  kPoster,         // high-texture, unique content (ads, graffiti), for good features
+  kWallPaint,      // indoor wall: nearly textureless paint (long weak-texture segments)
+  kFloorTile,      // indoor floor tiles with grout
+  kCeiling,        // indoor ceiling panels with lights
+  kWood,           // furniture, doors
+  kMetal,          // cabinets, machines, car bodies
+  kGrass,          // open terrain
+  kRock,           // boulders, hills, distant structure
+  kFoliage,        // trees / bushes: high-frequency, high-contrast
+  kMarker,         // test target: a white disc (radius 0.35 of the quad's shorter side) on black, centred
 };
 
 inline constexpr int kNumMaterials = static_cast<int>(Material::kMarker) + 1;

@@ -52,7 +52,7 @@ struct Hit {
   double distance = 0.0;  // along the unit ray direction, metres
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // unit, facing the ray origin
-  double u_m = 0.0;  // texture coordinates on the quad, metres
+  double u_m = 0.0;                                   // texture coordinates on the quad, metres
   double v_m = 0.0;
   const Quad* quad = nullptr;  // the quad hit (object frame for moving objects)
   int moving_object = -1;      // index into moving_objects(), -1 for static geometry
@@ -85,8 +85,8 @@ class Scene {
   // Nearest intersection with distance in (min_distance, max_distance), or
   // nullopt. `direction` must be unit. Moving objects are placed at t_ns.
   // Thread-safe after Build().
-  std::optional<Hit> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
-                               int64_t t_ns, double min_distance = 1e-4, double max_distance = 1e4) const;
+  std::optional<Hit> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, int64_t t_ns,
+                               double min_distance = 1e-4, double max_distance = 1e4) const;
 
   // Reference implementation for tests: the same ray-quad test over every
   // quad without the BVH. Gives exactly the result of Intersect (ties in
@@ -147,12 +147,12 @@ enum class MotionStyle {
 // A scene with the route the rig drives through it.
 struct SceneWithRoute {
   std::string name;
-  Scene scene;                                // Build() already called
-  std::vector<Eigen::Vector3d> waypoints;     // route centre line at ground level (z = 0), world
-  bool route_closed = false;                  // the route returns to its start
+  Scene scene;                             // Build() already called
+  std::vector<Eigen::Vector3d> waypoints;  // route centre line at ground level (z = 0), world
+  bool route_closed = false;               // the route returns to its start
   MotionStyle style = MotionStyle::kVehicle;
   double speed_mps = 10.0;
-  double rig_height_m = 1.2;                  // height of the rig origin above the ground
+  double rig_height_m = 1.2;  // height of the rig origin above the ground
 };
 
 // Scene builders. Deterministic for a seed.

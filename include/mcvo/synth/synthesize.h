@@ -26,9 +26,9 @@
 namespace mcvo::synth {
 
 struct SynthPreset {
-  std::string name;         // --preset NAME
-  std::string rig_file;     // stem of config/rigs/<rig_file>.json (compiled in)
-  std::string scene;        // default scene
+  std::string name;      // --preset NAME
+  std::string rig_file;  // stem of config/rigs/<rig_file>.json (compiled in)
+  std::string scene;     // default scene
   std::string description;
 };
 
@@ -39,15 +39,15 @@ Rig PresetRig(const std::string& preset_name);
 const SynthPreset& FindPreset(const std::string& preset_name);
 
 struct SynthOptions {
-  std::string preset;                // either a preset ...
-  std::filesystem::path rig_path;    // ... or a rig.json (then scene is required)
-  std::string scene;                 // urban|indoor|open; default: the preset's
-  int frames = 0;                    // 0: the whole route once
-  uint64_t seed = 0;                 // scene layout, trajectory variation, noise
-  double image_scale = 1.0;          // shrinks images and intrinsics together
+  std::string preset;              // either a preset ...
+  std::filesystem::path rig_path;  // ... or a rig.json (then scene is required)
+  std::string scene;               // urban|indoor|open; default: the preset's
+  int frames = 0;                  // 0: the whole route once
+  uint64_t seed = 0;               // scene layout, trajectory variation, noise
+  double image_scale = 1.0;        // shrinks images and intrinsics together
   double frame_rate_hz = 10.0;
-  int64_t first_t_ns = 1000000000;   // time stamp of frame 0
-  bool force = false;                // replace a non-empty output folder
+  int64_t first_t_ns = 1000000000;  // time stamp of frame 0
+  bool force = false;               // replace a non-empty output folder
   RenderOptions render;
 
   // Throws UsageError naming the bad field.
