@@ -6,7 +6,9 @@
 #include <string>
 
 #include "mcvo/synth/renderer.h"
+
 #include "mcvo/util/error.h"
+#include "mcvo/util/hash.h"
 
 namespace mcvo::synth {
 namespace {
@@ -69,9 +71,9 @@ double ExposureGain(const RenderEffects& effects, uint64_t seed, int camera_inde
   const double t_s = static_cast<double>(t_ns) * 1e-9;
   double sum = 0.0;
   for (int k = 0; k < 3; ++k) {
-    const uint64_t key = render_internal::HashKey(
+    const uint64_t key = HashWords(
         {seed, 0x65787030ULL /*"exp0"*/, static_cast<uint64_t>(camera_index), static_cast<uint64_t>(k)});
-    const double phase = 2.0 * M_PI * render_internal::HashUniform(key);
+    const double phase = 2.0 * M_PI * OpenUnitFromHash(key);
     sum += kAmplitudes[k] * std::sin(2.0 * M_PI * t_s / kPeriodsS[k] + phase);
   }
   return 1.0 + 0.3 * sum;

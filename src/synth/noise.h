@@ -13,17 +13,12 @@
 #include <cmath>
 #include <cstdint>
 
+#include "mcvo/util/hash.h"
+
 namespace mcvo::synth::noise {
 
-// An avalanching bijection on 32 bits (xor-shift / odd-multiply rounds).
-inline uint32_t Mix(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x2c1b3c6dU;
-  x ^= x >> 12;
-  x *= 0x297a2d39U;
-  x ^= x >> 15;
-  return x;
-}
+using ::mcvo::Mix32;
+inline uint32_t Mix(uint32_t x) { return Mix32(x); }
 
 // Hash of a lattice point. The linear combination with large odd constants
 // only collides for lattice offsets far larger than any pattern repeat we

@@ -2,6 +2,8 @@
 // the per-pixel sample loop, and the row-parallel driver.
 #include "mcvo/synth/renderer.h"
 
+#include "mcvo/util/hash.h"
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -292,12 +294,11 @@ const Quad* SameQuadAround(const std::vector<const Quad*>& centre_quad, int widt
 // Standard normal draw for pixel `pixel` of (seed, frame, camera): Box-Muller
 // on two hashed uniforms.
 double PixelGaussian(uint64_t seed, int frame, int camera_index, size_t pixel) {
-  const uint64_t h1 =
-      render_internal::HashKey({seed, 0x6e6f697365ULL /*"noise"*/, static_cast<uint64_t>(frame),
-                                static_cast<uint64_t>(camera_index), pixel});
-  const uint64_t h2 = render_internal::Mix64(h1);
-  const double u1 = render_internal::HashUniform(h1);
-  const double u2 = render_internal::HashUniform(h2);
+  const uint64_t h1 = HashWords({seed, 0x6e6f697365ULL /*"noise"*/, static_cast<uint64_t>(frame),
+                                 static_cast<uint64_t>(camera_index), pixel});
+  const uint64_t h2 = SplitMix64(h1);
+  const double u1 = OpenUnitFromHash(h1);
+  const double u2 = OpenUnitFromHash(h2);
   return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
 }
 

@@ -15,6 +15,7 @@
 #include <Eigen/Geometry>
 
 #include "mcvo/util/error.h"
+#include "mcvo/util/hash.h"
 
 namespace mcvo::synth {
 
@@ -111,14 +112,7 @@ float SafeInverse(double d) {
 }  // namespace
 
 uint32_t BoxFaceSeed(uint32_t box_seed, int face) {
-  // splitmix32-style mix of the box seed and the face number.
-  uint32_t x = box_seed * 0x9E3779B9u + static_cast<uint32_t>(face) * 0x85EBCA6Bu + 0x27D4EB2Fu;
-  x ^= x >> 16;
-  x *= 0x7FEB352Du;
-  x ^= x >> 15;
-  x *= 0x846CA68Bu;
-  x ^= x >> 16;
-  return x;
+  return Mix32(box_seed * 0x9E3779B9U + static_cast<uint32_t>(face) * 0x85EBCA6BU + 0x27D4EB2FU);
 }
 
 std::vector<Quad> MakeBoxQuads(const BoxSpec& box) {
@@ -401,6 +395,16 @@ Hit MakeHit(const Candidate& c, const Eigen::Vector3d& origin, const Eigen::Vect
   return hit;
 }
 
+// The hit of the nearest static quad found by a search, if any.
+template <typename QuadAccel>
+std::optional<Hit> StaticHitOf(const Candidate& best, const std::vector<Quad>& quads,
+                               const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) {
+  if (best.accel == nullptr) return std::nullopt;
+  Hit hit = MakeHit<QuadAccel>(best, origin, direction);
+  hit.quad = &quads[best.index];
+  return hit;
+}
+
 }  // namespace
 
 void Scene::IntersectMoving(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, int64_t t_ns,
@@ -490,11 +494,7 @@ std::optional<Hit> Scene::Intersect(const Eigen::Vector3d& origin, const Eigen::
       }
     }
   }
-  std::optional<Hit> result;
-  if (best.accel != nullptr) {
-    result = MakeHit<QuadAccel>(best, origin, direction);
-    result->quad = &quads_[best.index];
-  }
+  std::optional<Hit> result = StaticHitOf<QuadAccel>(best, quads_, origin, direction);
   IntersectMoving(origin, direction, t_ns, min_distance, &result);
   if (result && !(result->distance < max_distance)) result.reset();
   return result;
@@ -506,11 +506,7 @@ std::optional<Hit> Scene::IntersectBruteForce(const Eigen::Vector3d& origin, con
   Candidate best;
   best.t = max_distance;
   for (const QuadAccel& q : accel_) TestQuad(q, origin, direction, min_distance, &best);
-  std::optional<Hit> result;
-  if (best.accel != nullptr) {
-    result = MakeHit<QuadAccel>(best, origin, direction);
-    result->quad = &quads_[best.index];
-  }
+  std::optional<Hit> result = StaticHitOf<QuadAccel>(best, quads_, origin, direction);
   IntersectMoving(origin, direction, t_ns, min_distance, &result);
   if (result && !(result->distance < max_distance)) result.reset();
   return result;

@@ -8,35 +8,12 @@
 #include <Eigen/Core>
 
 #include "mcvo/synth/scene.h"
+#include "mcvo/util/hash.h"
 
 namespace mcvo::synth::internal {
 
-// SplitMix64: a tiny generator whose sequence is fixed by the seed on every
-// platform and standard library (std::*_distribution are not), so scenes are
-// identical everywhere.
-class SceneRng {
- public:
-  explicit SceneRng(uint64_t seed) : state_(seed * 0xD1B54A32D192ED03ull + 0x8CB92BA72F3D8DD7ull) {}
-  uint64_t Next() {
-    uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  // Uniform in [lo, hi).
-  double Uniform(double lo, double hi) {
-    return lo + (hi - lo) * (static_cast<double>(Next() >> 11) * (1.0 / 9007199254740992.0));
-  }
-  // Uniform integer in [lo, hi].
-  int UniformInt(int lo, int hi) {
-    return lo + static_cast<int>(Next() % static_cast<uint64_t>(hi - lo + 1));
-  }
-  bool Bernoulli(double p) { return Uniform(0.0, 1.0) < p; }
-  uint32_t Seed32() { return static_cast<uint32_t>(Next() >> 32); }
-
- private:
-  uint64_t state_;
-};
+// Portable seeded generator of the scene builders (util/hash.h).
+using SceneRng = SplitMix64Rng;
 
 // Vertical rectangle on the segment p0 -> p1 (ground-plane xy), from height
 // z0 to z0 + height; axis_v up; the front face (normal axis_u x axis_v) is on

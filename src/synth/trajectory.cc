@@ -37,6 +37,8 @@
 // a whole number of periods per loop so the pose is periodic.
 #include "mcvo/synth/trajectory.h"
 
+#include "mcvo/util/hash.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -109,18 +111,9 @@ std::vector<WaveSpec> WaveSpecsFor(MotionStyle style, int channel) {
   }
 }
 
-// Deterministic uniform doubles in [0, 1) from (seed, index): splitmix64, the
-// same on every platform and standard library.
-uint64_t SplitMix64(uint64_t x) {
-  x += 0x9E3779B97F4A7C15ULL;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
-  return x ^ (x >> 31);
-}
-double HashUniform(uint64_t seed, uint64_t index) {
-  return static_cast<double>(SplitMix64(SplitMix64(seed) ^ (index * 0xD1B54A32D192ED03ULL)) >> 11) *
-         0x1.0p-53;
-}
+// Deterministic uniform doubles in [0, 1) from (seed, index) (util/hash.h),
+// the same on every platform and standard library.
+double HashUniform(uint64_t seed, uint64_t index) { return UnitFromHash(HashWords({seed, index})); }
 
 double SmootherStep(double x) { return x * x * x * (x * (6.0 * x - 15.0) + 10.0); }
 // Integral of SmootherStep from 0 to x (1/2 at x = 1).

@@ -151,25 +151,6 @@ double ExposureGain(const RenderEffects& effects, uint64_t seed, int camera_inde
 // degrees where cos^4 would vanish or come back) keep a usable signal at the rim.
 double VignettingFalloff(double angle_rad);
 
-// Counter-based hashing behind every random draw of the renderer.
-namespace render_internal {
-// SplitMix64 finaliser (a bijection of 64-bit words with full avalanche).
-inline uint64_t Mix64(uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
-// Hash of a sequence of words (order matters).
-inline uint64_t HashKey(std::initializer_list<uint64_t> words) {
-  uint64_t h = 0x6d63766f72656e64ULL;  // "mcvorend"
-  for (uint64_t w : words) h = Mix64(h ^ Mix64(w));
-  return h;
-}
-// Uniform in (0, 1), never 0 or 1 (53 random bits, offset by half a step).
-inline double HashUniform(uint64_t h) { return (static_cast<double>(h >> 11) + 0.5) * 0x1.0p-53; }
-}  // namespace render_internal
-
 // Frees the per-camera bearing cache.
 void ClearRenderCache();
 inline constexpr size_t kRayCacheMaxBytes = size_t{1} << 30;
