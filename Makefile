@@ -16,7 +16,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # COLMAP exports; chromium renders reports in tests.
 DEB_PACKAGES := build-essential cmake pkg-config git ca-certificates \
   libeigen3-dev libceres-dev libsuitesparse-dev libgoogle-glog-dev libgflags-dev \
-  libopencv-dev libopencv-contrib-dev nlohmann-json3-dev \
+  libopencv-dev libopencv-contrib-dev nlohmann-json3-dev libyaml-cpp-dev \
   libgtest-dev libgmock-dev libopengv-dev colmap \
   clang-format clang-tidy
 
