@@ -18,13 +18,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Each test writes below its own parent folder, so a test that checks what
+// is left beside its output never sees another test's staging folder
+// (ctest runs tests in parallel).
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / "mcvo_synthesize_test" / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir.parent_path());
-  return dir;
+  const fs::path parent = fs::path(::testing::TempDir()) / "mcvo_synthesize_test" / name;
+  fs::remove_all(parent);
+  fs::create_directories(parent);
+  return parent / "out";
 }
-
 // A small, fast sequence of the full 4-camera KITTI-360 rig.
 SynthOptions SmallKitti360(int threads) {
   SynthOptions options;
