@@ -1,0 +1,166 @@
+// FrameStream: background decoding of dataset images into a bounded ring.
+//
+// Frame i is decoded by whichever worker claims it, into slot i % prefetch.
+// A worker may claim frame i only while i < next_out + prefetch, where
+// next_out is the next frame the consumer will take: at most `prefetch`
+// frames are decoded or being decoded at any time, and a slot is always free
+// when it is claimed. Each frame is decoded independently of the others, so
+// the output does not depend on the number of threads or on scheduling.
+#include <algorithm>
+#include <condition_variable>
+#include <exception>
+#include <mutex>
+#include <system_error>
+#include <thread>
+#include <utility>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "mcvo/dataset/dataset.h"
+#include "mcvo/util/error.h"
+
+namespace mcvo {
+namespace {
+
+struct CameraSize {
+  std::string name;
+  int width = 0;
+  int height = 0;
+};
+
+cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) MCVO_THROW_INPUT(path.string(), ": image file missing");
+  cv::Mat image;
+  try {
+    // IMREAD_GRAYSCALE gives 8-bit grey for 8/16-bit, grey or colour files.
+    image = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+  } catch (const cv::Exception& e) {
+    MCVO_THROW_INPUT(path.string(), ": cannot decode image: ", e.what());
+  }
+  if (image.empty()) MCVO_THROW_INPUT(path.string(), ": cannot decode image");
+  if (image.cols != camera.width || image.rows != camera.height) {
+    MCVO_THROW_INPUT(path.string(), ": image is ", image.cols, " x ", image.rows, " px but camera ",
+                     camera.name, " expects ", camera.width, " x ", camera.height);
+  }
+  return image;
+}
+
+}  // namespace
+
+struct FrameStream::Impl {
+  struct Slot {
+    bool ready = false;
+    FrameImages frame;
+    std::exception_ptr error;
+  };
+
+  std::vector<DatasetFrame> frames;
+  std::vector<CameraSize> cameras;
+  int prefetch = 1;
+
+  std::mutex mutex;
+  std::condition_variable work_cv;   // workers wait for a claimable frame
+  std::condition_variable ready_cv;  // the consumer waits for its frame
+  std::vector<Slot> slots;           // ring, frame i in slot i % prefetch
+  int next_claim = 0;                // next frame a worker will decode
+  int next_out = 0;                  // next frame Next() returns
+  bool stop = false;
+  std::exception_ptr failed;  // set once Next() has thrown: the stream stays stopped
+  std::vector<std::thread> workers;
+
+  FrameImages Decode(int i) const {
+    const DatasetFrame& source = frames[static_cast<size_t>(i)];
+    FrameImages frame;
+    frame.index = i;
+    frame.t_ns = source.t_ns;
+    frame.images.resize(source.images.size());
+    for (size_t c = 0; c < source.images.size(); ++c) {
+      if (!source.images[c].empty()) frame.images[c] = DecodeImage(source.images[c], cameras[c]);
+    }
+    return frame;
+  }
+
+  void Work() {
+    const int num_frames = static_cast<int>(frames.size());
+    while (true) {
+      int i = 0;
+      {
+        std::unique_lock<std::mutex> lock(mutex);
+        work_cv.wait(lock,
+                     [&] { return stop || next_claim >= num_frames || next_claim < next_out + prefetch; });
+        if (stop || next_claim >= num_frames) return;
+        i = next_claim++;
+      }
+      Slot result;
+      result.ready = true;
+      try {
+        result.frame = Decode(i);
+      } catch (...) {
+        result.error = std::current_exception();
+      }
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        slots[static_cast<size_t>(i % prefetch)] = std::move(result);
+      }
+      ready_cv.notify_all();
+    }
+  }
+
+  void Stop() {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      stop = true;
+    }
+    work_cv.notify_all();
+    for (std::thread& worker : workers) {
+      if (worker.joinable()) worker.join();
+    }
+  }
+};
+
+FrameStream::FrameStream(const DatasetIndex& index, const FrameStreamOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  if (options.threads < 0) throw UsageError(StrCat("threads: must be >= 0, got ", options.threads));
+  if (options.prefetch < 1) throw UsageError(StrCat("prefetch: must be >= 1, got ", options.prefetch));
+  impl_->frames = index.frames;
+  for (const Camera& camera : index.rig.cameras)
+    impl_->cameras.push_back({camera.name, camera.width, camera.height});
+  for (const DatasetFrame& frame : impl_->frames) {
+    MCVO_CHECK_MSG(frame.images.size() == impl_->cameras.size(), "frame with ", frame.images.size(),
+                   " images for ", impl_->cameras.size(), " cameras");
+  }
+  impl_->prefetch = options.prefetch;
+  impl_->slots.resize(static_cast<size_t>(options.prefetch));
+  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  threads =
+      std::clamp(threads, 1, std::max(1, std::min(options.prefetch, static_cast<int>(index.frames.size()))));
+  for (int t = 0; t < threads; ++t) impl_->workers.emplace_back([impl = impl_.get()] { impl->Work(); });
+}
+
+FrameStream::~FrameStream() { impl_->Stop(); }
+
+std::optional<FrameImages> FrameStream::Next() {
+  Impl& impl = *impl_;
+  if (impl.failed) std::rethrow_exception(impl.failed);
+  if (impl.next_out >= static_cast<int>(impl.frames.size())) return std::nullopt;
+  Impl::Slot slot;
+  {
+    std::unique_lock<std::mutex> lock(impl.mutex);
+    Impl::Slot& ring_slot = impl.slots[static_cast<size_t>(impl.next_out % impl.prefetch)];
+    impl.ready_cv.wait(lock, [&] { return ring_slot.ready; });
+    slot = std::move(ring_slot);
+    ring_slot = Impl::Slot();
+    ++impl.next_out;
+  }
+  if (slot.error) {
+    impl.failed = slot.error;
+    impl.Stop();
+    std::rethrow_exception(slot.error);
+  }
+  impl.work_cv.notify_all();
+  return std::move(slot.frame);
+}
+
+}  // namespace mcvo

@@ -1,0 +1,173 @@
+// FrameStream: order and pixels independent of the thread count, bounded
+// prefetch, clean early shutdown, and decode errors reported at their frame.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "dataset/dataset_fixtures.h"
+#include "mcvo/dataset/dataset.h"
+#include "mcvo/util/error.h"
+
+namespace mcvo {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::CopyDataset;
+using testing::SynthDataset;
+
+constexpr char kSuite[] = "frame_stream_test";
+constexpr int kFrames = 8;
+
+DatasetIndex Open(const fs::path& root) {
+  DatasetOptions options;
+  options.root = root;
+  return OpenDataset(options);
+}
+
+fs::path Stereo() { return SynthDataset(kSuite, "stereo", kFrames); }
+
+// Every frame's index, time and pixel bytes, in stream order.
+std::vector<std::string> Drain(const DatasetIndex& index, int threads, int prefetch) {
+  FrameStream stream(index, {threads, prefetch});
+  std::vector<std::string> frames;
+  while (std::optional<FrameImages> frame = stream.Next()) {
+    std::string bytes = std::to_string(frame->index) + "@" + std::to_string(frame->t_ns) + ":";
+    for (const cv::Mat& image : frame->images) {
+      if (image.empty()) {
+        bytes += "missing;";
+        continue;
+      }
+      EXPECT_EQ(image.type(), CV_8UC1);
+      EXPECT_TRUE(image.isContinuous());
+      bytes += std::string(image.ptr<char>(0), image.total()) + ";";
+    }
+    frames.push_back(std::move(bytes));
+  }
+  EXPECT_FALSE(stream.Next().has_value());  // stays at the end
+  return frames;
+}
+
+TEST(FrameStream, SameFramesAtAnyThreadCountAndPrefetch) {
+  const DatasetIndex index = Open(Stereo());
+  const std::vector<std::string> reference = Drain(index, 1, 1);
+  ASSERT_EQ(reference.size(), static_cast<size_t>(kFrames));
+  for (int i = 0; i < kFrames; ++i) EXPECT_EQ(reference[i].rfind(std::to_string(i) + "@", 0), 0u);
+  // The pixels are the files' pixels.
+  const cv::Mat direct = cv::imread(index.frames[3].images[1].string(), cv::IMREAD_GRAYSCALE);
+  EXPECT_NE(reference[3].find(std::string(direct.ptr<char>(0), direct.total())), std::string::npos);
+
+  for (const int threads : {1, 2, 4, 0}) {
+    for (const int prefetch : {1, 2, 3, 16}) {
+      EXPECT_EQ(Drain(index, threads, prefetch), reference) << threads << " threads, prefetch " << prefetch;
+    }
+  }
+}
+
+TEST(FrameStream, MissingImagesAreEmptyMats) {
+  const fs::path root = CopyDataset(Stereo(), kSuite, "missing");
+  testing::SetCsvField(root / "frames.csv", 3, 1, "");  // frame 2, image_00
+  const DatasetIndex index = Open(root);
+  FrameStream stream(index, {2, 2});
+  for (int i = 0; i < kFrames; ++i) {
+    const std::optional<FrameImages> frame = stream.Next();
+    ASSERT_TRUE(frame.has_value());
+    ASSERT_EQ(frame->images.size(), 2u);
+    EXPECT_EQ(frame->images[0].empty(), i == 2);
+    EXPECT_FALSE(frame->images[1].empty());
+  }
+  EXPECT_FALSE(stream.Next().has_value());
+}
+
+TEST(FrameStream, EarlyDestructionDoesNotHang) {
+  const DatasetIndex index = Open(Stereo());
+  const auto start = std::chrono::steady_clock::now();
+  for (const int threads : {1, 4}) {
+    {
+      FrameStream stream(index, {threads, 2});  // never read
+    }
+    {
+      FrameStream stream(index, {threads, 2});
+      ASSERT_TRUE(stream.Next().has_value());
+    }  // workers blocked on a full ring must still stop
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 30.0);
+}
+
+TEST(FrameStream, TruncatedPngThrowsAtItsFrame) {
+  const fs::path root = CopyDataset(Stereo(), kSuite, "truncated");
+  const fs::path broken = root / "images" / "image_01" / "000004.png";
+  const std::string png = testing::ReadText(broken);
+  ASSERT_GT(png.size(), 100u);
+  testing::WriteText(broken, png.substr(0, 100));
+  const DatasetIndex index = Open(root);  // metadata only: still opens
+  for (const int threads : {1, 3}) {
+    FrameStream stream(index, {threads, 4});
+    for (int i = 0; i < 4; ++i) ASSERT_TRUE(stream.Next().has_value()) << i;
+    try {
+      stream.Next();
+      ADD_FAILURE() << "no error for the truncated PNG";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), broken.string() + ": cannot decode image");
+    }
+    EXPECT_THROW(stream.Next(), InputError);  // the stream stays stopped
+  }
+}
+
+TEST(FrameStream, WrongImageSizeThrows) {
+  const fs::path root = CopyDataset(Stereo(), kSuite, "wrong_size");
+  const fs::path broken = root / "images" / "image_00" / "000001.png";
+  cv::imwrite(broken.string(), cv::Mat(20, 30, CV_8UC1, cv::Scalar(7)));
+  const DatasetIndex index = Open(root);
+  FrameStream stream(index, {2, 2});
+  ASSERT_TRUE(stream.Next().has_value());
+  try {
+    stream.Next();
+    ADD_FAILURE() << "no error for the wrong image size";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message.rfind(broken.string() + ": image is 30 x 20 px", 0), 0u) << message;
+    EXPECT_NE(message.find("expects 141 x 38"), std::string::npos) << message;
+  }
+}
+
+TEST(FrameStream, ImageDeletedAfterOpening) {
+  const fs::path root = CopyDataset(Stereo(), kSuite, "deleted");
+  const DatasetIndex index = Open(root);
+  fs::remove(root / "images" / "image_00" / "000000.png");
+  FrameStream stream(index, {1, 1});
+  EXPECT_THROW(stream.Next(), InputError);
+}
+
+TEST(FrameStream, ColourAnd16BitImagesBecome8BitGrey) {
+  const fs::path root = CopyDataset(Stereo(), kSuite, "depths");
+  const DatasetIndex index = Open(root);
+  const cv::Mat grey = cv::imread(index.frames[0].images[0].string(), cv::IMREAD_GRAYSCALE);
+  cv::Mat colour;
+  cv::merge(std::vector<cv::Mat>{grey, grey, grey}, colour);
+  cv::imwrite(index.frames[0].images[0].string(), colour);
+  cv::Mat wide;
+  grey.convertTo(wide, CV_16U, 256.0);
+  cv::imwrite(index.frames[0].images[1].string(), wide);
+  FrameStream stream(index, {1, 1});
+  const std::optional<FrameImages> frame = stream.Next();
+  ASSERT_TRUE(frame.has_value());
+  for (const cv::Mat& image : frame->images) {
+    EXPECT_EQ(image.type(), CV_8UC1);
+    EXPECT_EQ(cv::norm(image, grey, cv::NORM_INF), 0.0);
+  }
+}
+
+TEST(FrameStream, BadOptions) {
+  const DatasetIndex index = Open(Stereo());
+  EXPECT_THROW(FrameStream(index, {1, 0}), UsageError);
+  EXPECT_THROW(FrameStream(index, {-1, 2}), UsageError);
+}
+
+}  // namespace
+}  // namespace mcvo
