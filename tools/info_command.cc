@@ -1,13 +1,21 @@
 // `mcvo info --rig FILE`: loads a rig.json and prints what mcvo understood
 // from it (cameras, where each sits and looks in the rig frame, baselines and
 // angles between optical axes), so a calibration can be checked by eye
-// before a run. Later: --dataset DIR prints the dataset summary as well.
+// before a run. `mcvo info --dataset DIR` opens a dataset (any layout) and
+// prints its summary (frames, time span, gaps, missing images, ground truth,
+// masks, what the reader did), its rig, and which cameras see the same part
+// of the world.
 #include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "command.h"
+#include "mcvo/dataset/dataset.h"
+#include "mcvo/dataset/overlap.h"
 #include "mcvo/io/rig_io.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
@@ -60,19 +68,199 @@ void PrintRig(const std::string& path, const Rig& rig, std::ostream& out) {
   }
 }
 
+// Frame intervals longer than this many median intervals are reported as gaps.
+constexpr double kGapFactor = 1.5;
+// A frame is covered by ground truth when a pose lies within this time.
+constexpr int64_t kGroundTruthToleranceNs = 10000000;
+constexpr size_t kMaxGapsListed = 3;
+
+std::string Seconds(int64_t t_ns) { return FormatNsAsSeconds(t_ns) + " s"; }
+std::string Duration(int64_t dt_ns, int decimals = 3) {
+  return FormatFixed(static_cast<double>(dt_ns) * 1e-9, decimals) + " s";
+}
+std::string Percent(double fraction) { return FormatFixed(100.0 * fraction, 1) + " %"; }
+
+void PrintTiming(const DatasetIndex& index, std::ostream& out) {
+  const std::vector<DatasetFrame>& frames = index.frames;
+  out << "  frames     " << frames.size() << ", " << Seconds(frames.front().t_ns) << " .. "
+      << Seconds(frames.back().t_ns) << " (" << Duration(frames.back().t_ns - frames.front().t_ns) << ")\n";
+  if (frames.size() < 2) return;
+  std::vector<int64_t> intervals;
+  for (size_t i = 1; i < frames.size(); ++i) intervals.push_back(frames[i].t_ns - frames[i - 1].t_ns);
+  std::vector<int64_t> sorted = intervals;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                   sorted.end());
+  const int64_t median = sorted[sorted.size() / 2];
+  // Gaps, largest first (ties: earliest first).
+  std::vector<size_t> gaps;
+  for (size_t i = 0; i < intervals.size(); ++i) {
+    if (static_cast<double>(intervals[i]) > kGapFactor * static_cast<double>(median)) gaps.push_back(i);
+  }
+  std::stable_sort(gaps.begin(), gaps.end(), [&](size_t a, size_t b) { return intervals[a] > intervals[b]; });
+  out << "  interval   median " << Duration(median, 4) << " ("
+      << FormatFixed(1e9 / static_cast<double>(median), 2) << " Hz)\n  gaps       ";
+  if (gaps.empty()) {
+    out << "none (no interval > " << FormatDouble(kGapFactor) << "x median)\n";
+    return;
+  }
+  out << gaps.size() << " interval(s) > " << FormatDouble(kGapFactor) << "x median, largest "
+      << Duration(intervals[gaps.front()]) << "\n";
+  for (size_t k = 0; k < std::min(gaps.size(), kMaxGapsListed); ++k) {
+    const size_t i = gaps[k];
+    out << "             " << Duration(intervals[i]) << " after frame " << i
+        << " (t = " << Seconds(frames[i].t_ns) << ")\n";
+  }
+}
+
+void PrintMissingImages(const DatasetIndex& index, std::ostream& out) {
+  out << "  missing    ";
+  bool any = false;
+  for (int c = 0; c < index.rig.NumCameras(); ++c) {
+    size_t missing = 0;
+    for (const DatasetFrame& frame : index.frames)
+      missing += frame.images[static_cast<size_t>(c)].empty() ? 1 : 0;
+    if (missing == 0) continue;
+    out << (any ? ", " : "") << index.rig.cameras[static_cast<size_t>(c)].name << ": " << missing << " ("
+        << Percent(static_cast<double>(missing) / static_cast<double>(index.frames.size())) << ")";
+    any = true;
+  }
+  out << (any ? "" : "none") << "\n";
+}
+
+void PrintGroundTruth(const DatasetIndex& index, std::ostream& out) {
+  out << "  gt         ";
+  if (!index.ground_truth || index.ground_truth->poses.empty()) {
+    out << "none\n";
+    return;
+  }
+  const std::vector<StampedPose>& poses = index.ground_truth->poses;
+  out << poses.size() << " poses";
+  if (!index.ground_truth->has_time) {
+    out << " (without time stamps)\n";
+    return;
+  }
+  std::vector<int64_t> times;
+  times.reserve(poses.size());
+  for (const StampedPose& pose : poses) times.push_back(pose.t_ns);
+  std::sort(times.begin(), times.end());
+  size_t covered = 0;
+  for (const DatasetFrame& frame : index.frames) {
+    const auto after = std::lower_bound(times.begin(), times.end(), frame.t_ns);
+    const bool near_after = after != times.end() && *after - frame.t_ns <= kGroundTruthToleranceNs;
+    const bool near_before = after != times.begin() && frame.t_ns - *(after - 1) <= kGroundTruthToleranceNs;
+    covered += near_after || near_before ? 1 : 0;
+  }
+  out << ", " << Seconds(times.front()) << " .. " << Seconds(times.back()) << " ("
+      << Duration(times.back() - times.front()) << "); "
+      << Percent(static_cast<double>(covered) / static_cast<double>(index.frames.size()))
+      << " of frames have a pose within " << kGroundTruthToleranceNs / 1000000 << " ms\n";
+}
+
+void PrintMasks(const DatasetIndex& index, std::ostream& out) {
+  out << "  masks      ";
+  bool any = false;
+  for (size_t c = 0; c < index.masks.size(); ++c) {
+    const cv::Mat& mask = index.masks[c];
+    if (mask.empty()) continue;
+    out << (any ? ", " : "") << index.rig.cameras[c].name << " ("
+        << Percent(static_cast<double>(cv::countNonZero(mask)) / static_cast<double>(mask.total()))
+        << " valid)";
+    any = true;
+  }
+  out << (any ? "" : "none (every pixel valid)") << "\n";
+}
+
+void PrintOverlap(const Rig& rig, const std::vector<cv::Mat>& masks, std::ostream& out) {
+  if (rig.NumCameras() < 2) return;
+  out << "\nview overlap at " << FormatDouble(kViewOverlapDepthM)
+      << " m, masks applied (a - b: share of a's view that b sees / of b's view that a sees)\n";
+  bool any = false;
+  for (int i = 0; i < rig.NumCameras(); ++i) {
+    for (int j = i + 1; j < rig.NumCameras(); ++j) {
+      const Camera& a = rig.cameras[static_cast<size_t>(i)];
+      const Camera& b = rig.cameras[static_cast<size_t>(j)];
+      const cv::Mat& mask_a = masks[static_cast<size_t>(i)];
+      const cv::Mat& mask_b = masks[static_cast<size_t>(j)];
+      const double ab = ViewOverlap(a, b, kViewOverlapDepthM, mask_a, mask_b);
+      const double ba = ViewOverlap(b, a, kViewOverlapDepthM, mask_b, mask_a);
+      if (ab <= 0.0 && ba <= 0.0) continue;
+      out << "  " << a.name << " - " << b.name << ": " << Percent(ab) << " / " << Percent(ba) << "\n";
+      any = true;
+    }
+  }
+  if (!any)
+    out << "  none: no two cameras see the same point at " << FormatDouble(kViewOverlapDepthM) << " m\n";
+}
+
+void PrintDataset(const DatasetIndex& index, std::ostream& out) {
+  out << "dataset: " << index.root.string() << "\n"
+      << "  format     " << index.format << "\n"
+      << "  name       " << index.name << "\n";
+  PrintTiming(index, out);
+  PrintMissingImages(index, out);
+  PrintGroundTruth(index, out);
+  PrintMasks(index, out);
+  if (!index.log.empty()) {
+    out << "\nreader:\n";
+    for (const std::string& line : index.log) out << "  " << line << "\n";
+  }
+  out << "\n";
+  PrintRig("of the " + index.format + " dataset", index.rig, out);
+  PrintOverlap(index.rig, index.masks, out);
+}
+
+std::vector<std::string> SplitNames(const std::string& text) {
+  std::vector<std::string> names;
+  for (const std::string_view field : SplitFields(text, ',')) names.emplace_back(field);
+  return names;
+}
+
 int RunInfo(int argc, const char* const* argv) {
   std::string rig_path;
-  ArgParser args("mcvo info", "Loads a rig (and later a dataset) and prints what mcvo understood from it.");
+  std::string dataset_root;
+  std::string format = "auto";
+  std::string sequence;
+  std::string cameras;
+  bool skip_incomplete = false;
+  ArgParser args("mcvo info", "Loads a rig or a dataset and prints what mcvo understood from it.");
   args.AddString("rig", &rig_path, "FILE", "rig.json to load and describe (docs/rig-json.md)");
-  args.AddEpilog("example: mcvo info --rig config/rigs/kitti360.json\n");
+  args.AddString("dataset", &dataset_root, "DIR", "dataset folder to open and summarise (docs/datasets.md)");
+  args.AddString("format", &format, "F", "dataset layout: auto, generic, kitti360, euroc, kalibr");
+  args.AddString("sequence", &sequence, "S", "sequence of a multi-sequence dataset (kitti360)");
+  args.AddString("cameras", &cameras, "A,B", "subset and order of the cameras (names); default: all");
+  args.AddFlag("skip-incomplete", &skip_incomplete,
+               "drop frames where a camera has no image (default: keep them, that camera marked missing)");
+  args.AddEpilog(
+      "examples: mcvo info --rig config/rigs/kitti360.json\n"
+      "          mcvo info --dataset KITTI-360 --sequence 2013_05_28_drive_0000_sync\n");
   if (!args.Parse(argc, argv)) return kExitOk;
-  if (rig_path.empty()) throw UsageError("nothing to describe: give --rig FILE (see --help)");
-  const Rig rig = ReadRig(rig_path);
-  PrintRig(rig_path, rig, std::cout);
+  if (!rig_path.empty() && !dataset_root.empty())
+    throw UsageError("give either --rig or --dataset, not both");
+  if (rig_path.empty() && dataset_root.empty()) {
+    throw UsageError("nothing to describe: give --rig FILE or --dataset DIR (see --help)");
+  }
+  if (!rig_path.empty()) {
+    for (const char* dataset_flag : {"format", "sequence", "cameras", "skip-incomplete"}) {
+      if (args.WasGiven(dataset_flag)) throw UsageError(StrCat("--", dataset_flag, " needs --dataset"));
+    }
+    const Rig rig = ReadRig(rig_path);
+    PrintRig(rig_path, rig, std::cout);
+    return kExitOk;
+  }
+  DatasetOptions options;
+  options.root = dataset_root;
+  options.format = format;
+  options.sequence = sequence;
+  if (!cameras.empty()) options.cameras = SplitNames(cameras);
+  options.missing_images =
+      skip_incomplete ? MissingImagePolicy::kSkipFrame : MissingImagePolicy::kMarkMissing;
+  const DatasetIndex index = OpenDataset(options);
+  PrintDataset(index, std::cout);
   return kExitOk;
 }
 
-const CommandRegistrar kRegistrar("info", {"describe a rig.json (cameras, positions, baselines)", RunInfo});
+const CommandRegistrar kRegistrar(
+    "info", {"describe a rig.json or a dataset (cameras, baselines, frames, gaps, overlap)", RunInfo});
 
 }  // namespace
 }  // namespace mcvo::tools

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "mcvo/dataset/dataset.h"
 #include "mcvo/io/frame_table.h"
 #include "mcvo/io/rig_io.h"
 #include "mcvo/io/trajectory_io.h"
@@ -68,23 +69,6 @@ void WritePng(const std::filesystem::path& path, const cv::Mat& image) {
   if (!ok) MCVO_THROW_INPUT(path.string(), ": cannot write PNG");
 }
 
-// Valid-pixel mask of a camera: 255 where the pixel centre unprojects (inside
-// the model's image of its domain), 0 elsewhere. Empty when all are valid.
-cv::Mat DomainMask(const Camera& camera) {
-  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(255));
-  bool any_invalid = false;
-  for (int y = 0; y < camera.height; ++y) {
-    auto* row = mask.ptr<uint8_t>(y);
-    for (int x = 0; x < camera.width; ++x) {
-      if (!camera.Unproject(Eigen::Vector2d(x, y))) {
-        row[x] = 0;
-        any_invalid = true;
-      }
-    }
-  }
-  return any_invalid ? mask : cv::Mat();
-}
-
 Rig ResolveRig(const SynthOptions& options) {
   Rig rig = options.preset.empty() ? ReadRig(options.rig_path) : PresetRig(options.preset);
   for (Camera& camera : rig.cameras) {
@@ -137,7 +121,8 @@ const std::vector<SynthPreset>& SynthPresets() {
       {"kitti360", "kitti360", "urban",
        "the real KITTI-360 rig: 2 rectified pinhole 1408x376 + 2 MEI fisheye 1400x1400"},
       {"kitti360-3cam", "kitti360_3cam", "urban",
-       "KITTI-360 image_00 + both fisheyes (no two views overlap)"},
+       "KITTI-360 image_00 + both fisheyes (the paper's 3-camera setup: no stereo overlap; the >180 deg "
+       "fisheyes share only their image rims)"},
       {"multicam6", "multicam6", "indoor", "MultiCamData-like: 4 forward + 2 side 720x540 cameras"},
       {"stereo", "kitti360_stereo", "urban", "KITTI-360 rectified stereo pair image_00 + image_01"},
   };
@@ -217,7 +202,7 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
   for (Camera& camera : rig.cameras) {
     table.camera_names.push_back(camera.name);
     CreateDirectories(staging.path() / "images" / camera.name);
-    const cv::Mat mask = DomainMask(camera);
+    const cv::Mat mask = ValidPixelMask(camera);
     if (!mask.empty()) {
       CreateDirectories(staging.path() / "masks");
       camera.mask_path = (staging.path() / "masks" / (camera.name + ".png")).string();

@@ -35,10 +35,10 @@ enum class MissingImagePolicy {
 };
 
 struct DatasetOptions {
-  std::filesystem::path root;       // dataset folder (layout-specific meaning)
-  std::string format = "auto";      // auto | generic | kitti360 | euroc | kalibr
-  std::string sequence;             // kitti360: e.g. 2013_05_28_drive_0000_sync
-  std::vector<std::string> cameras; // subset and order of cameras (names); empty: all
+  std::filesystem::path root;        // dataset folder (layout-specific meaning)
+  std::string format = "auto";       // auto | generic | kitti360 | euroc | kalibr
+  std::string sequence;              // kitti360: e.g. 2013_05_28_drive_0000_sync
+  std::vector<std::string> cameras;  // subset and order of cameras (names); empty: all
   MissingImagePolicy missing_images = MissingImagePolicy::kMarkMissing;
   // Largest time difference between the images of one frame (layouts with
   // per-camera time stamps: kitti360, euroc, kalibr). The published MCVO uses 0.04 s.
@@ -52,16 +52,16 @@ struct DatasetOptions {
 };
 
 struct DatasetFrame {
-  int64_t t_ns = 0;                      // frame time (the reference camera's, or the mean for generic)
+  int64_t t_ns = 0;                           // frame time (the reference camera's, or the mean for generic)
   std::vector<std::filesystem::path> images;  // one per rig camera; empty path = missing
 };
 
 struct DatasetIndex {
-  std::string format;                    // the layout that was read
-  std::string name;                      // sequence name, for logs and reports
+  std::string format;  // the layout that was read
+  std::string name;    // sequence name, for logs and reports
   std::filesystem::path root;
-  Rig rig;                               // cameras in the order of DatasetOptions::cameras
-  std::vector<DatasetFrame> frames;      // strictly increasing t_ns
+  Rig rig;                                 // cameras in the order of DatasetOptions::cameras
+  std::vector<DatasetFrame> frames;        // strictly increasing t_ns
   std::optional<Trajectory> ground_truth;  // world_from_rig, when the dataset has it
   // Masks per camera (CV_8UC1, 255 = valid), empty Mat = no mask. Loaded
   // from the dataset's mask files or generated (kitti360 fisheyes).
@@ -92,9 +92,9 @@ std::string DetectDatasetFormat(const std::filesystem::path& root);
 cv::Mat ValidPixelMask(const Camera& camera, double max_angle_deg = 180.0);
 
 struct FrameImages {
-  int index = 0;                 // position in DatasetIndex::frames
+  int index = 0;  // position in DatasetIndex::frames
   int64_t t_ns = 0;
-  std::vector<cv::Mat> images;   // CV_8UC1 per camera; empty Mat = missing
+  std::vector<cv::Mat> images;  // CV_8UC1 per camera; empty Mat = missing
 };
 
 struct FrameStreamOptions {
