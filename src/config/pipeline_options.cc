@@ -6,54 +6,11 @@
 #include <string>
 
 #include "mcvo/util/error.h"
+#include "mcvo/util/option_checks.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo {
-namespace {
 
-std::string Text(double value) { return FormatDouble(value); }
-std::string Text(int value) { return std::to_string(value); }
-
-template <typename T>
-void CheckAtLeast(const char* path, T value, T min) {
-  if (!(value >= min)) MCVO_THROW_INPUT(path, ": must be >= ", Text(min), ", got ", Text(value));
-}
-
-template <typename T>
-void CheckPositive(const char* path, T value) {
-  if (!(value > T(0))) MCVO_THROW_INPUT(path, ": must be > 0, got ", Text(value));
-}
-
-void CheckInRange(const char* path, double value, double min, double max) {
-  if (!(value >= min && value <= max)) {
-    MCVO_THROW_INPUT(path, ": must be in [", Text(min), ", ", Text(max), "], got ", Text(value));
-  }
-}
-
-}  // namespace
-
-void FrontendOptions::Check() const {
-  if ((detector == DetectorType::kXFeat || detector == DetectorType::kSuperPoint) && model_path.empty()) {
-    MCVO_THROW_INPUT("/frontend/model_path: required for detector \"",
-                     EnumToName(kDetectorTypeNames, detector), "\" (an ONNX model file)");
-  }
-  CheckPositive("/frontend/max_features_pinhole", max_features_pinhole);
-  CheckPositive("/frontend/max_features_fisheye", max_features_fisheye);
-  CheckAtLeast("/frontend/min_distance_px", min_distance_px, 0);
-  CheckAtLeast("/frontend/candidate_factor", candidate_factor, 1);
-  CheckPositive("/frontend/ransac_threshold_px", ransac_threshold_px);
-  CheckPositive("/frontend/ransac_focal_px", ransac_focal_px);
-  CheckPositive("/frontend/clahe/clip_limit", clahe.clip_limit);
-  CheckAtLeast("/frontend/clahe/tile_grid", clahe.tile_grid, 1);
-  CheckAtLeast("/frontend/lk/window_px", lk.window_px, 3);
-  CheckAtLeast("/frontend/lk/pyramid_levels", lk.pyramid_levels, 0);
-  CheckAtLeast("/frontend/lk/max_iterations", lk.max_iterations, 1);
-  CheckPositive("/frontend/lk/forward_backward_threshold_px", lk.forward_backward_threshold_px);
-  CheckAtLeast("/frontend/superpoint/downscale", superpoint.downscale, 1);
-  CheckInRange("/frontend/superpoint/confidence_threshold", superpoint.confidence_threshold, 0.0, 1.0);
-  CheckAtLeast("/frontend/superpoint/nms_radius_px", superpoint.nms_radius_px, 0);
-  CheckAtLeast("/frontend/superpoint/border_px", superpoint.border_px, 0);
-}
 
 void InitializerOptions::Check() const {
   CheckAtLeast("/initializer/window_size", window_size, 2);
@@ -112,7 +69,7 @@ void PipelineOptions::Check() const {
   if (runtime.deterministic && backend.max_solver_time_s > 0.0) {
     MCVO_THROW_INPUT(
         "/backend/max_solver_time_s: must be 0 when /runtime/deterministic is true (a wall-clock ",
-        "limit makes results depend on machine load), got ", Text(backend.max_solver_time_s));
+        "limit makes results depend on machine load), got ", OptionText(backend.max_solver_time_s));
   }
   if (initializer.window_size > backend.window_size) {
     MCVO_THROW_INPUT("/initializer/window_size: must be <= /backend/window_size (", backend.window_size,

@@ -18,29 +18,10 @@
 #include <vector>
 
 #include "mcvo/eval/evaluate.h"
+#include "mcvo/frontend/frontend_options.h"
+#include "mcvo/util/enum_names.h"
 
 namespace mcvo {
-
-// An enum value and its name in the config file.
-template <typename Enum>
-struct EnumName {
-  Enum value;
-  const char* name;
-};
-
-enum class DetectorType { kShiTomasi, kOrb, kXFeat, kSuperPoint };
-inline constexpr EnumName<DetectorType> kDetectorTypeNames[] = {{DetectorType::kShiTomasi, "shi_tomasi"},
-                                                                {DetectorType::kOrb, "orb"},
-                                                                {DetectorType::kXFeat, "xfeat"},
-                                                                {DetectorType::kSuperPoint, "superpoint"}};
-
-// How new features are chosen among the detections (reference notes,
-// "3-priority quad-tree selection").
-enum class FeatureSelection { kThreePriority, kQuadtree, kScore };
-inline constexpr EnumName<FeatureSelection> kFeatureSelectionNames[] = {
-    {FeatureSelection::kThreePriority, "three_priority"},
-    {FeatureSelection::kQuadtree, "quadtree"},
-    {FeatureSelection::kScore, "score"}};
 
 enum class LossType { kHuber, kCauchy, kTrivial };
 inline constexpr EnumName<LossType> kLossTypeNames[] = {
@@ -54,52 +35,6 @@ inline constexpr EnumName<AlignmentMode> kAlignmentModeNames[] = {{AlignmentMode
                                                                   {AlignmentMode::kSim3, "sim3"},
                                                                   {AlignmentMode::kPosYaw, "posyaw"},
                                                                   {AlignmentMode::kNone, "none"}};
-
-template <typename Enum, size_t N>
-constexpr const char* EnumToName(const EnumName<Enum> (&table)[N], Enum value) {
-  for (const EnumName<Enum>& entry : table) {
-    if (entry.value == value) return entry.name;
-  }
-  return "?";
-}
-
-struct ClaheOptions {
-  bool enabled = true;
-  double clip_limit = 3.0;
-  int tile_grid = 8;  // tiles per image side
-};
-
-struct LkOptions {
-  int window_px = 21;                  // square window side
-  int pyramid_levels = 3;              // levels above the full image (OpenCV maxLevel)
-  int max_iterations = 30;             // per level
-  bool forward_backward_check = true;  // track back and reject points that do not return
-  double forward_backward_threshold_px = 0.5;
-};
-
-struct SuperPointOptions {
-  int downscale = 2;  // image downscaled by this factor before inference
-  double confidence_threshold = 0.015;
-  int nms_radius_px = 2;
-  int border_px = 4;
-};
-
-struct FrontendOptions {
-  DetectorType detector = DetectorType::kShiTomasi;
-  std::string model_path;  // ONNX model of xfeat / superpoint; required for those
-  int max_features_pinhole = 100;
-  int max_features_fisheye = 150;
-  int min_distance_px = 20;
-  FeatureSelection selection = FeatureSelection::kThreePriority;
-  int candidate_factor = 4;  // keep the best factor x (max - tracked) new detections before selection
-  double ransac_threshold_px = 1.0;
-  double ransac_focal_px = 460.0;  // virtual pinhole focal the threshold is expressed at
-  ClaheOptions clahe;
-  LkOptions lk;
-  SuperPointOptions superpoint;
-
-  void Check() const;
-};
 
 struct InitializerOptions {
   int window_size = 10;

@@ -1,0 +1,65 @@
+// Options of the frontend (detection, LK tracking, outlier rejection,
+// selection). Defaults follow the published implementation
+// (../shared/reference/mcvo-reference-notes.md). Every key: docs/config.md.
+#pragma once
+
+#include <string>
+
+#include "mcvo/util/enum_names.h"
+
+namespace mcvo {
+
+enum class DetectorType { kShiTomasi, kOrb, kXFeat, kSuperPoint };
+inline constexpr EnumName<DetectorType> kDetectorTypeNames[] = {{DetectorType::kShiTomasi, "shi_tomasi"},
+                                                                {DetectorType::kOrb, "orb"},
+                                                                {DetectorType::kXFeat, "xfeat"},
+                                                                {DetectorType::kSuperPoint, "superpoint"}};
+
+// How new features are chosen among the detections (reference notes,
+// "3-priority quad-tree selection").
+enum class FeatureSelection { kThreePriority, kQuadtree, kScore };
+inline constexpr EnumName<FeatureSelection> kFeatureSelectionNames[] = {
+    {FeatureSelection::kThreePriority, "three_priority"},
+    {FeatureSelection::kQuadtree, "quadtree"},
+    {FeatureSelection::kScore, "score"}};
+
+struct ClaheOptions {
+  bool enabled = true;
+  double clip_limit = 3.0;
+  int tile_grid = 8;  // tiles per image side
+};
+
+struct LkOptions {
+  int window_px = 21;                  // square window side
+  int pyramid_levels = 3;              // levels above the full image (OpenCV maxLevel)
+  int max_iterations = 30;             // per level
+  bool forward_backward_check = true;  // track back and reject points that do not return
+  double forward_backward_threshold_px = 0.5;
+};
+
+struct SuperPointOptions {
+  int downscale = 2;  // image downscaled by this factor before inference
+  double confidence_threshold = 0.015;
+  int nms_radius_px = 2;
+  int border_px = 4;
+};
+
+struct FrontendOptions {
+  DetectorType detector = DetectorType::kShiTomasi;
+  std::string model_path;  // ONNX model of xfeat / superpoint; required for those
+  int max_features_pinhole = 100;
+  int max_features_fisheye = 150;
+  int min_distance_px = 20;
+  FeatureSelection selection = FeatureSelection::kThreePriority;
+  int candidate_factor = 4;  // keep the best factor x (max - tracked) new detections before selection
+  double ransac_threshold_px = 1.0;
+  double ransac_focal_px = 460.0;  // virtual pinhole focal the threshold is expressed at
+  ClaheOptions clahe;
+  LkOptions lk;
+  SuperPointOptions superpoint;
+
+  // Throws InputError naming the bad field by its config path.
+  void Check() const;
+};
+
+}  // namespace mcvo

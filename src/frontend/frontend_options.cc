@@ -1,0 +1,31 @@
+#include "mcvo/frontend/frontend_options.h"
+
+#include "mcvo/util/error.h"
+#include "mcvo/util/option_checks.h"
+
+namespace mcvo {
+
+void FrontendOptions::Check() const {
+  if ((detector == DetectorType::kXFeat || detector == DetectorType::kSuperPoint) && model_path.empty()) {
+    MCVO_THROW_INPUT("/frontend/model_path: required for detector \"",
+                     EnumToName(kDetectorTypeNames, detector), "\" (an ONNX model file)");
+  }
+  CheckPositive("/frontend/max_features_pinhole", max_features_pinhole);
+  CheckPositive("/frontend/max_features_fisheye", max_features_fisheye);
+  CheckAtLeast("/frontend/min_distance_px", min_distance_px, 0);
+  CheckAtLeast("/frontend/candidate_factor", candidate_factor, 1);
+  CheckPositive("/frontend/ransac_threshold_px", ransac_threshold_px);
+  CheckPositive("/frontend/ransac_focal_px", ransac_focal_px);
+  CheckPositive("/frontend/clahe/clip_limit", clahe.clip_limit);
+  CheckAtLeast("/frontend/clahe/tile_grid", clahe.tile_grid, 1);
+  CheckAtLeast("/frontend/lk/window_px", lk.window_px, 3);
+  CheckAtLeast("/frontend/lk/pyramid_levels", lk.pyramid_levels, 0);
+  CheckAtLeast("/frontend/lk/max_iterations", lk.max_iterations, 1);
+  CheckPositive("/frontend/lk/forward_backward_threshold_px", lk.forward_backward_threshold_px);
+  CheckAtLeast("/frontend/superpoint/downscale", superpoint.downscale, 1);
+  CheckInRange("/frontend/superpoint/confidence_threshold", superpoint.confidence_threshold, 0.0, 1.0);
+  CheckAtLeast("/frontend/superpoint/nms_radius_px", superpoint.nms_radius_px, 0);
+  CheckAtLeast("/frontend/superpoint/border_px", superpoint.border_px, 0);
+}
+
+}  // namespace mcvo
