@@ -1,0 +1,71 @@
+// Per-camera tracking: pyramidal LK with a forward-backward check, outlier
+// rejection by RANSAC on bearing vectors (5-point essential, OpenGV; works for
+// fisheyes beyond 90 degrees), borders and masks respected, optional CLAHE,
+// then detection and selection of new features.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core/mat.hpp>
+
+#include "mcvo/camera/camera.h"
+#include "mcvo/frontend/detector.h"
+#include "mcvo/frontend/frontend_options.h"
+
+namespace mcvo {
+
+struct TrackedFeature {
+  uint64_t id = 0;  // 0 until assigned (new features of the current frame)
+  Eigen::Vector2f pixel = Eigen::Vector2f::Zero();
+  float score = 0.0f;
+  int track_length = 1;  // frames this feature has been seen in, this one included
+};
+
+struct CameraFrameStats {
+  bool image_missing = false;
+  int tracked = 0;          // features carried over from the previous frame (after all checks)
+  int lost_lk = 0;          // LK failed or left the image / mask
+  int lost_forward_backward = 0;
+  int ransac_inliers = 0;
+  int ransac_outliers = 0;
+  int new_features = 0;
+  double mean_track_length = 0.0;  // over the features of this frame
+  double sfd = 0.0;                // ComputeSfd over this frame's features
+  // Wall time per stage in seconds: for logs and benchmarks only, never
+  // written to deterministic outputs.
+  double seconds_pyramid = 0.0, seconds_lk = 0.0, seconds_ransac = 0.0, seconds_detect = 0.0,
+         seconds_select = 0.0;
+};
+
+struct CameraFrameResult {
+  std::vector<TrackedFeature> features;  // tracked first (previous order), then new ones
+  // Descriptor of each feature, one row per feature, from the frame it was
+  // detected in (empty when the detector has none).
+  cv::Mat descriptors;
+  CameraFrameStats stats;
+};
+
+class CameraTracker {
+ public:
+  CameraTracker(const Camera& camera, const cv::Mat& mask, const FrontendOptions& options,
+                std::unique_ptr<Detector> detector);
+  ~CameraTracker();
+  CameraTracker(const CameraTracker&) = delete;
+  CameraTracker& operator=(const CameraTracker&) = delete;
+
+  // Tracks into the next image (CV_8UC1; an empty Mat means this camera has
+  // no image in this frame: every track ends). New features have id 0.
+  CameraFrameResult Track(const cv::Mat& image);
+  // Gives the id-0 features of `result` (the last Track()) consecutive ids
+  // from *next_id on, advancing it, and records them for the next frame.
+  void AssignNewIds(uint64_t* next_id, CameraFrameResult* result);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mcvo
