@@ -14,6 +14,7 @@
 #include <system_error>
 #include <vector>
 
+#include "mcvo/dataset/dataset.h"
 #include "mcvo/synth/synthesize.h"
 
 namespace mcvo::testing {
@@ -111,6 +112,14 @@ inline void SetCsvField(const fs::path& path, size_t line, size_t field, const s
   for (size_t i = 0; i < fields.size(); ++i) joined += (i > 0 ? "," : "") + fields[i];
   lines[line] = joined;
   WriteLines(path, lines);
+}
+
+// True when a line of the reader's log contains `text`.
+inline bool LogHas(const DatasetIndex& index, const std::string& text) {
+  for (const std::string& line : index.log) {
+    if (line.find(text) != std::string::npos) return true;
+  }
+  return false;
 }
 
 }  // namespace mcvo::testing

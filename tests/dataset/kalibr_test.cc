@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "dataset/dataset_fixtures.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/util/error.h"
 
@@ -150,12 +151,7 @@ std::string ErrorOf(const DatasetOptions& options) {
   return "<no InputError>";
 }
 
-bool LogHas(const DatasetIndex& index, const std::string& text) {
-  for (const std::string& line : index.log) {
-    if (line.find(text) != std::string::npos) return true;
-  }
-  return false;
-}
+using testing::LogHas;
 
 TEST(KalibrReader, ChainedRigAndSyncedFrames) {
   const fs::path root = WriteKalibr();

@@ -9,6 +9,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "dataset/dataset_fixtures.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/dataset/kitti360_writer.h"
 #include "mcvo/io/rig_io.h"
@@ -132,12 +133,7 @@ DatasetOptions Options(const fs::path& root) {
   return options;
 }
 
-bool LogHas(const DatasetIndex& index, const std::string& text) {
-  for (const std::string& line : index.log) {
-    if (line.find(text) != std::string::npos) return true;
-  }
-  return false;
-}
+using testing::LogHas;
 
 double MaxAbs(const Eigen::MatrixXd& m) { return m.cwiseAbs().maxCoeff(); }
 

@@ -1,6 +1,8 @@
 // Runs the built `mcvo` binary: exit codes and one-line errors on bad input.
 #include <gtest/gtest.h>
+
 #include <sys/wait.h>
+#include "tools/run_mcvo.h"
 
 #include <array>
 #include <cstdio>
@@ -14,29 +16,9 @@ namespace {
 
 const std::filesystem::path kSource(MCVO_SOURCE_DIR);
 
-struct Result {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
-
-std::string Quote(const std::string& text) {
-  std::string out = "'";
-  for (char c : text) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-Result RunMcvo(const std::string& args) {
-  const std::string command = Quote(MCVO_BINARY) + " " + args + " 2>&1";
-  Result result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer{};
-  size_t n = 0;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using mcvo::test::Quote;
+using mcvo::test::Result;
+using mcvo::test::RunMcvo;
 
 std::filesystem::path TempDir() {
   const char* env = std::getenv("MCVO_TEST_TMP");

@@ -1,8 +1,10 @@
 // `mcvo info --dataset`: the summary of a synthesized dataset, one-line
 // errors for a broken one, and usage errors.
 #include <gtest/gtest.h>
+
 #include <sys/wait.h>
 #include <unistd.h>
+#include "tools/run_mcvo.h"
 
 #include <array>
 #include <cstdio>
@@ -14,29 +16,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
-
-std::string Quote(const std::string& text) {
-  std::string out = "'";
-  for (char c : text) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-Result RunMcvo(const std::string& args) {
-  const std::string command = Quote(MCVO_BINARY) + " " + args + " 2>&1";
-  Result result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer{};
-  size_t n = 0;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using mcvo::test::Quote;
+using mcvo::test::Result;
+using mcvo::test::RunMcvo;
 
 // One folder per process (ctest runs tests as parallel processes).
 class InfoDataset : public ::testing::Test {

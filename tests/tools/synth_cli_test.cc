@@ -1,6 +1,8 @@
 // `mcvo synth` as a user runs it: exit codes and one-line errors.
 #include <gtest/gtest.h>
 
+#include "tools/run_mcvo.h"
+
 #include <sys/wait.h>
 #include <algorithm>
 #include <array>
@@ -14,22 +16,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int exit_code = -1;
-  std::string output;
-};
-
-Result RunMcvo(const std::string& args) {
-  const std::string command = std::string(MCVO_BINARY) + " " + args + " 2>&1";
-  Result result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) result.output += buffer.data();
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using mcvo::test::Quote;
+using mcvo::test::Result;
+using mcvo::test::RunMcvo;
 
 fs::path TempDir(const std::string& name) {
   const fs::path dir = fs::path(::testing::TempDir()) / "mcvo_synth_cli_test" / name;
