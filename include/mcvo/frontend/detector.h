@@ -36,6 +36,9 @@ class Detector {
   virtual Detections Detect(const cv::Mat& image, const cv::Mat& mask, int max_candidates, int border_px) = 0;
   // Descriptor length (floats or bytes), 0 without descriptors.
   virtual int DescriptorSize() const = 0;
+  // OpenCV depth of a descriptor element: CV_32F (networks), CV_8U (ORB);
+  // meaningless when DescriptorSize() is 0.
+  virtual int DescriptorType() const = 0;
 };
 
 // Builds the detector the options ask for. Network models are loaded and

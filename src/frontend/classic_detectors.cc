@@ -1,0 +1,178 @@
+// Classic detectors: Shi-Tomasi (min-eigenvalue response with 3x3 non-maximum
+// suppression) and ORB/FAST. See classic_detectors.h for the choices.
+#include "classic_detectors.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "mcvo/util/error.h"
+
+namespace mcvo {
+namespace internal {
+namespace {
+
+constexpr double kShiTomasiQuality = 0.01;      // of the strongest response in the image
+constexpr float kShiTomasiMinResponse = 1e-6f;  // absolute floor: a flat image has no corners
+constexpr int kOrbDescriptorBytes = 32;
+
+void CheckInputs(const cv::Mat& image, const cv::Mat& mask) {
+  MCVO_CHECK_MSG(image.type() == CV_8UC1, "detectors take CV_8UC1 images, got type ", image.type());
+  MCVO_CHECK_MSG(mask.empty() || (mask.type() == CV_8UC1 && mask.size() == image.size()),
+                 "mask must be empty or CV_8UC1 of the image size");
+}
+
+// A detection at (x, y) is admissible when it lies at least border_px inside
+// the image (pixel centres: [border, size - 1 - border]) and the mask is
+// non-zero at its nearest pixel.
+bool Admissible(float x, float y, const cv::Mat& image, const cv::Mat& mask, int border_px) {
+  const float border = static_cast<float>(std::max(border_px, 0));
+  if (!(x >= border && y >= border && x <= image.cols - 1 - border && y <= image.rows - 1 - border))
+    return false;
+  if (mask.empty()) return true;
+  const int col = std::clamp(static_cast<int>(std::lround(x)), 0, mask.cols - 1);
+  const int row = std::clamp(static_cast<int>(std::lround(y)), 0, mask.rows - 1);
+  return mask.at<uint8_t>(row, col) != 0;
+}
+
+// Order of the detections: decreasing score, then smaller y, then smaller x,
+// then input order; the first max_candidates of it.
+std::vector<int> SortedOrder(const std::vector<Eigen::Vector2f>& pixels, const std::vector<float>& scores,
+                             int max_candidates) {
+  std::vector<int> order(pixels.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    if (scores[a] != scores[b]) return scores[a] > scores[b];
+    if (pixels[a].y() != pixels[b].y()) return pixels[a].y() < pixels[b].y();
+    return pixels[a].x() < pixels[b].x();
+  });
+  if (static_cast<int>(order.size()) > max_candidates) order.resize(std::max(max_candidates, 0));
+  return order;
+}
+
+// Offset in [-0.5, 0.5] of the vertex of the parabola through (-1, left),
+// (0, centre), (1, right); 0 when the samples do not bend down.
+float ParabolaPeak(float left, float centre, float right) {
+  const float curvature = left + right - 2.0f * centre;
+  if (!(curvature < 0.0f)) return 0.0f;
+  return std::clamp(0.5f * (left - right) / curvature, -0.5f, 0.5f);
+}
+
+class ShiTomasiDetector : public Detector {
+ public:
+  std::string Name() const override { return "shi_tomasi"; }
+  int DescriptorSize() const override { return 0; }
+  int DescriptorType() const override { return CV_32F; }
+
+  Detections Detect(const cv::Mat& image, const cv::Mat& mask, int max_candidates, int border_px) override {
+    CheckInputs(image, mask);
+    Detections out;
+    if (max_candidates <= 0 || image.rows < 3 || image.cols < 3) return out;
+    cv::cornerMinEigenVal(image, response_, /*blockSize=*/3, /*ksize=*/3, cv::BORDER_REFLECT_101);
+    double max_response = 0.0;
+    cv::minMaxLoc(response_, nullptr, &max_response);
+    const float threshold =
+        std::max(static_cast<float>(kShiTomasiQuality * max_response), kShiTomasiMinResponse);
+
+    std::vector<Eigen::Vector2f> pixels;
+    std::vector<float> scores;
+    for (int y = 1; y + 1 < response_.rows; ++y) {
+      const float* above = response_.ptr<float>(y - 1);
+      const float* row = response_.ptr<float>(y);
+      const float* below = response_.ptr<float>(y + 1);
+      for (int x = 1; x + 1 < response_.cols; ++x) {
+        const float c = row[x];
+        if (c < threshold) continue;
+        // Strict 3x3 maximum; on a plateau the first pixel in raster order wins
+        // (neighbours before it must be smaller, after it not larger).
+        if (!(above[x - 1] < c && above[x] < c && above[x + 1] < c && row[x - 1] < c)) continue;
+        if (row[x + 1] > c || below[x - 1] > c || below[x] > c || below[x + 1] > c) continue;
+        const float px = static_cast<float>(x) + ParabolaPeak(row[x - 1], c, row[x + 1]);
+        const float py = static_cast<float>(y) + ParabolaPeak(above[x], c, below[x]);
+        if (!Admissible(px, py, image, mask, border_px)) continue;
+        pixels.emplace_back(px, py);
+        scores.push_back(c);
+      }
+    }
+    for (int i : SortedOrder(pixels, scores, max_candidates)) {
+      out.pixels.push_back(pixels[i]);
+      out.scores.push_back(scores[i]);
+    }
+    return out;
+  }
+
+ private:
+  cv::Mat response_;  // reused between frames
+};
+
+class OrbDetector : public Detector {
+ public:
+  OrbDetector()
+      : orb_(cv::ORB::create(/*nfeatures=*/500, /*scaleFactor=*/1.2f, /*nlevels=*/8, /*edgeThreshold=*/31,
+                             /*firstLevel=*/0, /*WTA_K=*/2, cv::ORB::FAST_SCORE, /*patchSize=*/31,
+                             /*fastThreshold=*/20)) {}
+
+  std::string Name() const override { return "orb"; }
+  int DescriptorSize() const override { return kOrbDescriptorBytes; }
+  int DescriptorType() const override { return CV_8U; }
+
+  Detections Detect(const cv::Mat& image, const cv::Mat& mask, int max_candidates, int border_px) override {
+    CheckInputs(image, mask);
+    Detections out;
+    out.descriptors = cv::Mat(0, kOrbDescriptorBytes, CV_8U);
+    if (max_candidates <= 0) return out;
+    // The border goes into the detection mask too, so that ORB's per-level
+    // budget is not spent on points dropped afterwards.
+    cv::Mat detect_mask = cv::Mat::zeros(image.size(), CV_8UC1);
+    const int border = std::max(border_px, 0);
+    if (image.cols > 2 * border && image.rows > 2 * border) {
+      const cv::Rect inner(border, border, image.cols - 2 * border, image.rows - 2 * border);
+      if (mask.empty()) {
+        detect_mask(inner).setTo(255);
+      } else {
+        mask(inner).copyTo(detect_mask(inner));
+      }
+    }
+    orb_->setMaxFeatures(max_candidates);
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat descriptors;
+    orb_->detectAndCompute(image, detect_mask, keypoints, descriptors);
+    MCVO_CHECK(descriptors.empty() || descriptors.rows == static_cast<int>(keypoints.size()));
+
+    // Keypoints of coarse levels are scaled to level 0 and may land just
+    // outside the mask: check again at full resolution.
+    std::vector<Eigen::Vector2f> pixels;
+    std::vector<float> scores;
+    std::vector<int> rows;
+    for (size_t i = 0; i < keypoints.size(); ++i) {
+      const cv::Point2f& pt = keypoints[i].pt;
+      if (!Admissible(pt.x, pt.y, image, mask, border_px)) continue;
+      pixels.emplace_back(pt.x, pt.y);
+      scores.push_back(keypoints[i].response);
+      rows.push_back(static_cast<int>(i));
+    }
+    const std::vector<int> order = SortedOrder(pixels, scores, max_candidates);
+    out.descriptors = cv::Mat(static_cast<int>(order.size()), kOrbDescriptorBytes, CV_8U);
+    for (size_t k = 0; k < order.size(); ++k) {
+      const int i = order[k];
+      out.pixels.push_back(pixels[i]);
+      out.scores.push_back(scores[i]);
+      descriptors.row(rows[i]).copyTo(out.descriptors.row(static_cast<int>(k)));
+    }
+    return out;
+  }
+
+ private:
+  cv::Ptr<cv::ORB> orb_;
+};
+
+}  // namespace
+
+std::unique_ptr<Detector> MakeShiTomasiDetector() { return std::make_unique<ShiTomasiDetector>(); }
+std::unique_ptr<Detector> MakeOrbDetector() { return std::make_unique<OrbDetector>(); }
+
+}  // namespace internal
+}  // namespace mcvo
