@@ -40,8 +40,9 @@ struct CellLogitsDecodeOptions {
 // Pixels are then scaled by (scale_x, scale_y) to the original image
 // (x_image = (x_net + 0.5) * scale_x - 0.5, pixel centres at integers).
 // Pure and deterministic.
-Detections DecodeCellLogits(const cv::Mat& cell_logits, const cv::Mat& descriptor_map, const cv::Mat& reliability,
-                            const CellLogitsDecodeOptions& options, double scale_x, double scale_y);
+Detections DecodeCellLogits(const cv::Mat& cell_logits, const cv::Mat& descriptor_map,
+                            const cv::Mat& reliability, const CellLogitsDecodeOptions& options,
+                            double scale_x, double scale_y);
 
 enum class KeypointNetLayout {
   kXFeat,       // outputs: 65-ch keypoint logits, 64-ch feats, 1-ch heatmap
@@ -62,8 +63,8 @@ struct KeypointNetOutputs {
 // output_keypoints / output_heatmap / output_feats decide ties), SuperPoint =
 // 65 + D channels (D != 65). Anything else throws InputError
 // "<file>: unsupported output layout: outputs <name [shape]>...; expected ...".
-KeypointNetOutputs IdentifyLayout(const std::vector<std::string>& names, const std::vector<std::vector<int>>& shapes,
-                                  const std::string& file);
+KeypointNetOutputs IdentifyLayout(const std::vector<std::string>& names,
+                                  const std::vector<std::vector<int>>& shapes, const std::string& file);
 
 // Loads an ONNX model, identifies its layout from the output shapes (and
 // names), checks the input is [1, 1, H, W] with H, W multiples of 8, and runs
@@ -83,6 +84,7 @@ class KeypointNetDetector : public Detector {
   // max_candidates < 0: no limit. Descriptors: CV_32F rows, unit norm.
   Detections Detect(const cv::Mat& image, const cv::Mat& mask, int max_candidates, int border_px) override;
   int DescriptorSize() const override;
+  int DescriptorType() const override;
   KeypointNetLayout layout() const;
   // The network input size; (0, 0) for a model with a dynamic input size.
   cv::Size input_size() const;
