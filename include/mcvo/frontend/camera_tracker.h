@@ -26,8 +26,8 @@ struct TrackedFeature {
 
 struct CameraFrameStats {
   bool image_missing = false;
-  int tracked = 0;          // features carried over from the previous frame (after all checks)
-  int lost_lk = 0;          // LK failed or left the image / mask
+  int tracked = 0;  // features carried over from the previous frame (after all checks)
+  int lost_lk = 0;  // LK failed or left the image / mask
   int lost_forward_backward = 0;
   int ransac_inliers = 0;
   int ransac_outliers = 0;
@@ -62,6 +62,9 @@ class CameraTracker {
   // Gives the id-0 features of `result` (the last Track()) consecutive ids
   // from *next_id on, advancing it, and records them for the next frame.
   void AssignNewIds(uint64_t* next_id, CameraFrameResult* result);
+  // The detector's descriptor layout (Detector::DescriptorSize / DescriptorType).
+  int DescriptorSize() const;
+  int DescriptorType() const;
 
  private:
   struct Impl;

@@ -33,6 +33,9 @@ class MultiCameraTracker {
 
   // images: one CV_8UC1 per camera, empty = missing.
   MultiCameraFrame Track(int frame_index, int64_t t_ns, const std::vector<cv::Mat>& images);
+  // Descriptor layout of every camera's features (one detector type per rig).
+  int DescriptorSize() const;
+  int DescriptorType() const;
 
  private:
   struct Impl;

@@ -1,0 +1,286 @@
+// Per-camera tracking (see camera_tracker.h). One frame:
+//  1. optional CLAHE, then the LK pyramid of the image, built once and kept
+//     for the next frame (the previous pyramid serves forward and backward);
+//  2. pyramidal LK previous -> current, then current -> previous (forward-
+//     backward check); points that fail, leave the image border or land on a
+//     mask zero are dropped;
+//  3. RANSAC on the bearings of the survivors (bearing_ransac.h);
+//  4. detection where new features are wanted and selection (selection.h).
+//
+// Decisions:
+//  * The feature budget comes from the camera model: max_features_fisheye for
+//    kannala_brandt, mei, double_sphere, else max_features_pinhole (the rule
+//    of multi_camera_tracker.h, applied here so every user of CameraTracker
+//    gets it).
+//  * Border: a tracked point must lie at least BorderPx() from the image
+//    border, the same border detection uses (SuperPoint: its own border).
+//  * The backward LK starts from scratch (no initial flow), so the check is
+//    independent of the forward result.
+#include "mcvo/frontend/camera_tracker.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <utility>
+
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include "mcvo/frontend/bearing_ransac.h"
+#include "mcvo/frontend/selection.h"
+#include "mcvo/util/error.h"
+
+namespace mcvo {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+bool IsFisheye(CameraModelId model) {
+  return model == CameraModelId::kKannalaBrandt || model == CameraModelId::kMei ||
+         model == CameraModelId::kDoubleSphere;
+}
+
+// Copies the rows `keep` of `rows` (empty stays empty).
+cv::Mat SelectRows(const cv::Mat& rows, const std::vector<int>& keep) {
+  if (rows.empty()) return cv::Mat();
+  cv::Mat out(static_cast<int>(keep.size()), rows.cols, rows.type());
+  for (size_t i = 0; i < keep.size(); ++i) rows.row(keep[i]).copyTo(out.row(static_cast<int>(i)));
+  return out;
+}
+
+}  // namespace
+
+struct CameraTracker::Impl {
+  Camera camera;
+  cv::Mat mask;
+  FrontendOptions options;
+  std::unique_ptr<Detector> detector;
+  cv::Ptr<cv::CLAHE> clahe;
+  int max_features = 0;
+  int border_px = 1;
+
+  // State after the last Track() (+ AssignNewIds): what the next frame tracks.
+  std::vector<cv::Mat> prev_pyramid;
+  std::vector<TrackedFeature> prev_features;
+  cv::Mat prev_descriptors;
+
+  bool Usable(const cv::Point2f& p) const {
+    const float b = static_cast<float>(border_px);
+    if (!(p.x >= b && p.y >= b && p.x <= camera.width - 1 - b && p.y <= camera.height - 1 - b)) return false;
+    if (mask.empty()) return true;
+    const int x = static_cast<int>(std::lround(p.x));
+    const int y = static_cast<int>(std::lround(p.y));
+    return mask.at<uint8_t>(y, x) != 0;
+  }
+
+  CameraFrameResult Track(const cv::Mat& input);
+};
+
+CameraTracker::CameraTracker(const Camera& camera, const cv::Mat& mask, const FrontendOptions& options,
+                             std::unique_ptr<Detector> detector)
+    : impl_(std::make_unique<Impl>()) {
+  MCVO_CHECK(detector != nullptr);
+  impl_->camera = camera;
+  impl_->options = options;
+  impl_->detector = std::move(detector);
+  if (!mask.empty()) {
+    if (mask.type() != CV_8UC1 || mask.cols != camera.width || mask.rows != camera.height) {
+      MCVO_THROW_INPUT("mask of camera ", camera.name, ": expected CV_8UC1 ", camera.width, "x",
+                       camera.height, ", got type ", mask.type(), " ", mask.cols, "x", mask.rows);
+    }
+    impl_->mask = mask.clone();
+  }
+  if (options.clahe.enabled) {
+    impl_->clahe =
+        cv::createCLAHE(options.clahe.clip_limit, cv::Size(options.clahe.tile_grid, options.clahe.tile_grid));
+  }
+  impl_->max_features = IsFisheye(camera.model) ? options.max_features_fisheye : options.max_features_pinhole;
+  impl_->border_px =
+      options.detector == DetectorType::kSuperPoint ? std::max(1, options.superpoint.border_px) : 1;
+}
+
+CameraTracker::~CameraTracker() = default;
+
+CameraFrameResult CameraTracker::Track(const cv::Mat& image) { return impl_->Track(image); }
+
+CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
+  CameraFrameResult result;
+  CameraFrameStats& stats = result.stats;
+  if (input.empty()) {
+    // No image: every track ends; the next image starts afresh.
+    stats.image_missing = true;
+    prev_pyramid.clear();
+    prev_features.clear();
+    prev_descriptors = cv::Mat();
+    return result;
+  }
+  if (input.type() != CV_8UC1 || input.cols != camera.width || input.rows != camera.height) {
+    MCVO_THROW_INPUT("image of camera ", camera.name, ": expected CV_8UC1 ", camera.width, "x", camera.height,
+                     ", got type ", input.type(), " ", input.cols, "x", input.rows);
+  }
+
+  // 1. Preprocessing and pyramid.
+  auto start = Clock::now();
+  cv::Mat image;
+  if (clahe) {
+    clahe->apply(input, image);
+  } else {
+    image = input;
+  }
+  const cv::Size window(options.lk.window_px, options.lk.window_px);
+  std::vector<cv::Mat> pyramid;
+  cv::buildOpticalFlowPyramid(image, pyramid, window, options.lk.pyramid_levels);
+  stats.seconds_pyramid = SecondsSince(start);
+
+  // 2. LK forward, backward.
+  start = Clock::now();
+  std::vector<int> kept;  // indices into prev_features
+  std::vector<cv::Point2f> kept_pixels;
+  if (!prev_features.empty() && !prev_pyramid.empty()) {
+    std::vector<cv::Point2f> prev_pts, cur_pts;
+    for (const TrackedFeature& f : prev_features) prev_pts.emplace_back(f.pixel.x(), f.pixel.y());
+    const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                    options.lk.max_iterations, 0.001);
+    std::vector<uint8_t> status;
+    std::vector<float> error;
+    cv::calcOpticalFlowPyrLK(prev_pyramid, pyramid, prev_pts, cur_pts, status, error, window,
+                             options.lk.pyramid_levels, criteria);
+    std::vector<uint8_t> back_status(prev_pts.size(), 1);
+    std::vector<cv::Point2f> back_pts;
+    if (options.lk.forward_backward_check) {
+      cv::calcOpticalFlowPyrLK(pyramid, prev_pyramid, cur_pts, back_pts, back_status, error, window,
+                               options.lk.pyramid_levels, criteria);
+    }
+    const double fb2 = options.lk.forward_backward_threshold_px * options.lk.forward_backward_threshold_px;
+    for (size_t i = 0; i < prev_pts.size(); ++i) {
+      if (!status[i] || !Usable(cur_pts[i])) {
+        ++stats.lost_lk;
+        continue;
+      }
+      if (options.lk.forward_backward_check) {
+        const cv::Point2f d = back_pts[i] - prev_pts[i];
+        if (!back_status[i] || static_cast<double>(d.dot(d)) > fb2) {
+          ++stats.lost_forward_backward;
+          continue;
+        }
+      }
+      kept.push_back(static_cast<int>(i));
+      kept_pixels.push_back(cur_pts[i]);
+    }
+  }
+  stats.seconds_lk = SecondsSince(start);
+
+  // 3. RANSAC on bearings. A pixel the model cannot unproject counts as lost by LK.
+  start = Clock::now();
+  {
+    std::vector<Eigen::Vector3d> bearings_prev, bearings_cur;
+    std::vector<int> with_bearing;  // positions in kept
+    for (size_t k = 0; k < kept.size(); ++k) {
+      const Eigen::Vector2f& p = prev_features[static_cast<size_t>(kept[k])].pixel;
+      const auto b_prev = camera.Unproject(p.cast<double>());
+      const auto b_cur = camera.Unproject(Eigen::Vector2d(kept_pixels[k].x, kept_pixels[k].y));
+      if (!b_prev || !b_cur) {
+        ++stats.lost_lk;
+        continue;
+      }
+      bearings_prev.push_back(*b_prev);
+      bearings_cur.push_back(*b_cur);
+      with_bearing.push_back(static_cast<int>(k));
+    }
+    BearingRansacOptions ransac;
+    ransac.threshold = BearingThresholdFromPixels(options.ransac_threshold_px, options.ransac_focal_px);
+    const std::vector<bool> inliers = RansacRelativePoseInliers(bearings_prev, bearings_cur, ransac);
+    std::vector<int> survivors;
+    std::vector<cv::Point2f> survivor_pixels;
+    for (size_t j = 0; j < with_bearing.size(); ++j) {
+      if (!inliers[j]) {
+        ++stats.ransac_outliers;
+        continue;
+      }
+      ++stats.ransac_inliers;
+      survivors.push_back(kept[static_cast<size_t>(with_bearing[j])]);
+      survivor_pixels.push_back(kept_pixels[static_cast<size_t>(with_bearing[j])]);
+    }
+    kept.swap(survivors);
+    kept_pixels.swap(survivor_pixels);
+  }
+  stats.seconds_ransac = SecondsSince(start);
+
+  for (size_t k = 0; k < kept.size(); ++k) {
+    TrackedFeature f = prev_features[static_cast<size_t>(kept[k])];
+    f.pixel = Eigen::Vector2f(kept_pixels[k].x, kept_pixels[k].y);
+    ++f.track_length;
+    result.features.push_back(f);
+  }
+  result.descriptors = SelectRows(prev_descriptors, kept);
+  stats.tracked = static_cast<int>(kept.size());
+
+  // 4. Detection and selection of new features.
+  const int wanted = max_features - stats.tracked;
+  if (wanted > 0) {
+    start = Clock::now();
+    const Detections detections =
+        detector->Detect(image, mask, std::max(1, options.candidate_factor) * wanted, border_px);
+    stats.seconds_detect = SecondsSince(start);
+    start = Clock::now();
+    SelectionInput selection;
+    for (const TrackedFeature& f : result.features) selection.tracked.push_back(f.pixel);
+    selection.candidates = &detections;
+    selection.image_width = camera.width;
+    selection.image_height = camera.height;
+    selection.mask = mask;
+    selection.max_features = max_features;
+    selection.min_distance_px = options.min_distance_px;
+    const std::vector<int> chosen = SelectFeatures(selection, options.selection);
+    for (int index : chosen) {
+      TrackedFeature f;
+      f.pixel = detections.pixels[static_cast<size_t>(index)];
+      f.score = detections.scores[static_cast<size_t>(index)];
+      result.features.push_back(f);
+    }
+    if (!detections.descriptors.empty() && !chosen.empty()) {
+      const cv::Mat new_rows = SelectRows(detections.descriptors, chosen);
+      if (result.descriptors.empty()) {
+        result.descriptors = new_rows;
+      } else {
+        cv::vconcat(result.descriptors, new_rows, result.descriptors);
+      }
+    }
+    stats.new_features = static_cast<int>(chosen.size());
+    stats.seconds_select = SecondsSince(start);
+  }
+
+  double length_sum = 0.0;
+  std::vector<Eigen::Vector2f> pixels;
+  for (const TrackedFeature& f : result.features) {
+    length_sum += f.track_length;
+    pixels.push_back(f.pixel);
+  }
+  if (!result.features.empty())
+    stats.mean_track_length = length_sum / static_cast<double>(result.features.size());
+  stats.sfd = ComputeSfd(pixels, camera.width, camera.height);
+
+  prev_pyramid = std::move(pyramid);
+  prev_features = result.features;
+  prev_descriptors = result.descriptors;
+  return result;
+}
+
+void CameraTracker::AssignNewIds(uint64_t* next_id, CameraFrameResult* result) {
+  MCVO_CHECK(next_id != nullptr && result != nullptr);
+  MCVO_CHECK(result->features.size() == impl_->prev_features.size());
+  for (size_t i = 0; i < result->features.size(); ++i) {
+    if (result->features[i].id != 0) continue;
+    result->features[i].id = (*next_id)++;
+    impl_->prev_features[i].id = result->features[i].id;
+  }
+}
+
+int CameraTracker::DescriptorSize() const { return impl_->detector->DescriptorSize(); }
+int CameraTracker::DescriptorType() const { return impl_->detector->DescriptorType(); }
+
+}  // namespace mcvo

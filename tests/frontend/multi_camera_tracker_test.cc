@@ -1,0 +1,162 @@
+#include "mcvo/frontend/multi_camera_tracker.h"
+
+#include <cstring>
+#include <set>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include "mcvo/dataset/dataset.h"
+#include "mcvo/synth/renderer.h"
+#include "mcvo/synth/scene.h"
+#include "mcvo/synth/synthesize.h"
+#include "mcvo/synth/trajectory.h"
+#include "mcvo/util/error.h"
+
+namespace mcvo {
+namespace {
+
+constexpr int64_t kFramePeriodNs = 100000000;  // 10 Hz
+
+// Three frames of the KITTI-360 rig (2 pinhole + 2 MEI fisheye cameras) at
+// quarter resolution in the urban scene, with the fisheyes' valid-pixel masks.
+struct RigSequence {
+  Rig rig;
+  std::vector<cv::Mat> masks;
+  std::vector<std::vector<cv::Mat>> frames;  // [frame][camera]
+};
+
+const RigSequence& Sequence() {
+  static const RigSequence* sequence = [] {
+    auto* s = new RigSequence;
+    s->rig = synth::PresetRig("kitti360");
+    for (Camera& camera : s->rig.cameras) {
+      camera.mask_path.clear();
+      camera = ScaledCamera(camera, 0.25);
+      s->masks.push_back(ValidPixelMask(camera));
+    }
+    const synth::SceneWithRoute world = synth::BuildScene("urban", 0);
+    const synth::SmoothTrajectory trajectory(
+        {world.waypoints, world.route_closed, world.style, world.speed_mps, 2.5, world.rig_height_m, 0});
+    const synth::RenderOptions render;
+    for (int frame = 0; frame < 3; ++frame) {
+      std::vector<cv::Mat> images;
+      for (int c = 0; c < s->rig.NumCameras(); ++c) {
+        images.push_back(synth::RenderImage(
+            world.scene, s->rig, c, [&](int64_t t) { return trajectory.WorldFromRig(t); },
+            frame * kFramePeriodNs, frame, render));
+      }
+      s->frames.push_back(std::move(images));
+    }
+    return s;
+  }();
+  return *sequence;
+}
+
+std::vector<MultiCameraFrame> TrackAll(int threads, const std::vector<std::vector<cv::Mat>>& frames) {
+  const RigSequence& seq = Sequence();
+  FrontendOptions options;
+  options.detector = DetectorType::kShiTomasi;
+  MultiCameraTracker tracker(seq.rig, seq.masks, options, threads);
+  std::vector<MultiCameraFrame> out;
+  for (size_t f = 0; f < frames.size(); ++f) {
+    out.push_back(tracker.Track(static_cast<int>(f), static_cast<int64_t>(f) * kFramePeriodNs, frames[f]));
+  }
+  return out;
+}
+
+bool SameBits(float a, float b) { return std::memcmp(&a, &b, sizeof(float)) == 0; }
+
+void ExpectIdentical(const std::vector<MultiCameraFrame>& a, const std::vector<MultiCameraFrame>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t f = 0; f < a.size(); ++f) {
+    ASSERT_EQ(a[f].cameras.size(), b[f].cameras.size());
+    EXPECT_EQ(a[f].frame_index, b[f].frame_index);
+    EXPECT_EQ(a[f].t_ns, b[f].t_ns);
+    for (size_t c = 0; c < a[f].cameras.size(); ++c) {
+      const CameraFrameResult& ra = a[f].cameras[c];
+      const CameraFrameResult& rb = b[f].cameras[c];
+      ASSERT_EQ(ra.features.size(), rb.features.size()) << "frame " << f << " camera " << c;
+      for (size_t i = 0; i < ra.features.size(); ++i) {
+        EXPECT_EQ(ra.features[i].id, rb.features[i].id);
+        EXPECT_TRUE(SameBits(ra.features[i].pixel.x(), rb.features[i].pixel.x()));
+        EXPECT_TRUE(SameBits(ra.features[i].pixel.y(), rb.features[i].pixel.y()));
+        EXPECT_TRUE(SameBits(ra.features[i].score, rb.features[i].score));
+        EXPECT_EQ(ra.features[i].track_length, rb.features[i].track_length);
+      }
+      EXPECT_EQ(ra.descriptors.rows, rb.descriptors.rows);
+      if (!ra.descriptors.empty()) {
+        EXPECT_EQ(cv::norm(ra.descriptors, rb.descriptors, cv::NORM_INF), 0.0);
+      }
+      const CameraFrameStats& sa = ra.stats;
+      const CameraFrameStats& sb = rb.stats;
+      EXPECT_EQ(sa.image_missing, sb.image_missing);
+      EXPECT_EQ(sa.tracked, sb.tracked);
+      EXPECT_EQ(sa.lost_lk, sb.lost_lk);
+      EXPECT_EQ(sa.lost_forward_backward, sb.lost_forward_backward);
+      EXPECT_EQ(sa.ransac_inliers, sb.ransac_inliers);
+      EXPECT_EQ(sa.ransac_outliers, sb.ransac_outliers);
+      EXPECT_EQ(sa.new_features, sb.new_features);
+      EXPECT_EQ(sa.mean_track_length, sb.mean_track_length);
+      EXPECT_EQ(sa.sfd, sb.sfd);
+    }
+  }
+}
+
+TEST(MultiCameraTrackerTest, SameResultWithOneAndTwoThreads) {
+  const RigSequence& seq = Sequence();
+  const std::vector<MultiCameraFrame> one = TrackAll(1, seq.frames);
+  const std::vector<MultiCameraFrame> two = TrackAll(2, seq.frames);
+  const std::vector<MultiCameraFrame> four = TrackAll(4, seq.frames);
+  ExpectIdentical(one, two);
+  ExpectIdentical(one, four);
+  // OpenCV's internal parallel loops split work differently with one thread.
+  const int opencv_threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  const std::vector<MultiCameraFrame> serial_opencv = TrackAll(2, seq.frames);
+  cv::setNumThreads(opencv_threads);
+  ExpectIdentical(one, serial_opencv);
+  int tracked = 0;
+  for (const CameraFrameResult& r : one.back().cameras) tracked += r.stats.tracked;
+  EXPECT_GT(tracked, 50);
+}
+
+TEST(MultiCameraTrackerTest, NewIdsAreUniqueAndIncreaseInCameraOrder) {
+  const RigSequence& seq = Sequence();
+  const std::vector<MultiCameraFrame> frames = TrackAll(2, seq.frames);
+  std::set<uint64_t> seen;
+  uint64_t last_new = 0;
+  for (const MultiCameraFrame& frame : frames) {
+    for (size_t c = 0; c < frame.cameras.size(); ++c) {
+      const CameraFrameResult& r = frame.cameras[c];
+      EXPECT_FALSE(r.features.empty()) << "camera " << c;
+      for (const TrackedFeature& f : r.features) {
+        EXPECT_NE(f.id, 0u);
+        if (f.track_length == 1) {
+          EXPECT_GT(f.id, last_new);  // new ids: consecutive, camera 0 first
+          EXPECT_EQ(f.id, last_new + 1);
+          last_new = f.id;
+          EXPECT_TRUE(seen.insert(f.id).second) << "id " << f.id << " reused";
+        } else {
+          EXPECT_EQ(seen.count(f.id), 1u) << "tracked id " << f.id << " never created";
+        }
+      }
+    }
+  }
+}
+
+TEST(MultiCameraTrackerTest, MissingCameraImage) {
+  const RigSequence& seq = Sequence();
+  std::vector<std::vector<cv::Mat>> frames = seq.frames;
+  frames[1][2] = cv::Mat();
+  const std::vector<MultiCameraFrame> out = TrackAll(2, frames);
+  EXPECT_TRUE(out[1].cameras[2].stats.image_missing);
+  EXPECT_TRUE(out[1].cameras[2].features.empty());
+  EXPECT_EQ(out[2].cameras[2].stats.tracked, 0);
+  EXPECT_GT(out[2].cameras[0].stats.tracked, 0);
+  EXPECT_THROW(TrackAll(1, {std::vector<cv::Mat>(1)}), InputError);
+}
+
+}  // namespace
+}  // namespace mcvo
