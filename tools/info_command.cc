@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "command.h"
+#include "dataset_args.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/dataset/overlap.h"
 #include "mcvo/io/rig_io.h"
@@ -209,52 +210,30 @@ void PrintDataset(const DatasetIndex& index, std::ostream& out) {
   PrintOverlap(index.rig, index.masks, out);
 }
 
-std::vector<std::string> SplitNames(const std::string& text) {
-  std::vector<std::string> names;
-  for (const std::string_view field : SplitFields(text, ',')) names.emplace_back(field);
-  return names;
-}
-
 int RunInfo(int argc, const char* const* argv) {
   std::string rig_path;
-  std::string dataset_root;
-  std::string format = "auto";
-  std::string sequence;
-  std::string cameras;
-  bool skip_incomplete = false;
+  DatasetArgs dataset;
   ArgParser args("mcvo info", "Loads a rig or a dataset and prints what mcvo understood from it.");
   args.AddString("rig", &rig_path, "FILE", "rig.json to load and describe (docs/rig-json.md)");
-  args.AddString("dataset", &dataset_root, "DIR", "dataset folder to open and summarise (docs/datasets.md)");
-  args.AddString("format", &format, "F", "dataset layout: auto, generic, kitti360, euroc, kalibr");
-  args.AddString("sequence", &sequence, "S", "sequence of a multi-sequence dataset (kitti360)");
-  args.AddString("cameras", &cameras, "A,B", "subset and order of the cameras (names); default: all");
-  args.AddFlag("skip-incomplete", &skip_incomplete,
-               "drop frames where a camera has no image (default: keep them, that camera marked missing)");
+  AddDatasetArgs(&args, &dataset, /*dataset_required=*/false);
   args.AddEpilog(
       "examples: mcvo info --rig config/rigs/kitti360.json\n"
       "          mcvo info --dataset KITTI-360 --sequence 2013_05_28_drive_0000_sync\n");
   if (!args.Parse(argc, argv)) return kExitOk;
-  if (!rig_path.empty() && !dataset_root.empty())
+  if (!rig_path.empty() && !dataset.root.empty())
     throw UsageError("give either --rig or --dataset, not both");
-  if (rig_path.empty() && dataset_root.empty()) {
+  if (rig_path.empty() && dataset.root.empty()) {
     throw UsageError("nothing to describe: give --rig FILE or --dataset DIR (see --help)");
   }
   if (!rig_path.empty()) {
-    for (const char* dataset_flag : {"format", "sequence", "cameras", "skip-incomplete"}) {
+    for (const char* dataset_flag : kDatasetDetailFlags) {
       if (args.WasGiven(dataset_flag)) throw UsageError(StrCat("--", dataset_flag, " needs --dataset"));
     }
     const Rig rig = ReadRig(rig_path);
     PrintRig(rig_path, rig, std::cout);
     return kExitOk;
   }
-  DatasetOptions options;
-  options.root = dataset_root;
-  options.format = format;
-  options.sequence = sequence;
-  if (!cameras.empty()) options.cameras = SplitNames(cameras);
-  options.missing_images =
-      skip_incomplete ? MissingImagePolicy::kSkipFrame : MissingImagePolicy::kMarkMissing;
-  const DatasetIndex index = OpenDataset(options);
+  const DatasetIndex index = OpenDataset(MakeDatasetOptions(dataset));
   PrintDataset(index, std::cout);
   return kExitOk;
 }

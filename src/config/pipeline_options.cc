@@ -11,7 +11,6 @@
 
 namespace mcvo {
 
-
 void InitializerOptions::Check() const {
   CheckAtLeast("/initializer/window_size", window_size, 2);
   // A fundamental matrix needs 8 correspondences.

@@ -18,8 +18,8 @@ struct SelectionInput {
   const Detections* candidates = nullptr;
   int image_width = 0;
   int image_height = 0;
-  cv::Mat mask;              // CV_8UC1 or empty
-  int max_features = 100;    // total wanted: tracked + new
+  cv::Mat mask;            // CV_8UC1 or empty
+  int max_features = 100;  // total wanted: tracked + new
   double min_distance_px = 20.0;
 };
 
@@ -32,7 +32,7 @@ std::vector<int> SelectFeatures(const SelectionInput& input, FeatureSelection me
 // SFD (the paper's spatial feature distribution metric): the variance of the
 // feature counts over the cells of a uniform grid (grid_cols x grid_rows) over
 // the image; lower is more uniform.
-double ComputeSfd(const std::vector<Eigen::Vector2f>& pixels, int image_width, int image_height, int grid_cols = 8,
-                  int grid_rows = 8);
+double ComputeSfd(const std::vector<Eigen::Vector2f>& pixels, int image_width, int image_height,
+                  int grid_cols = 8, int grid_rows = 8);
 
 }  // namespace mcvo

@@ -17,10 +17,10 @@ namespace mcvo {
 
 struct TrackFileHeader {
   std::vector<std::string> camera_names;
-  int descriptor_size = 0;     // per feature; 0: none
-  int descriptor_type = 0;     // OpenCV depth of descriptor rows (CV_32F or CV_8U)
-  std::string detector;        // detector name
-  std::string config_json;     // the resolved config that produced the file
+  int descriptor_size = 0;  // per feature; 0: none
+  int descriptor_type = 0;  // OpenCV depth of descriptor rows (CV_32F or CV_8U)
+  std::string detector;     // detector name
+  std::string config_json;  // the resolved config that produced the file
 };
 
 // Writes to "<path>.tmp.<pid>" and renames on Commit(): an interrupted run

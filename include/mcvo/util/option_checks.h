@@ -25,7 +25,8 @@ void CheckPositive(const char* path, T value) {
 
 inline void CheckInRange(const char* path, double value, double min, double max) {
   if (!(value >= min && value <= max)) {
-    MCVO_THROW_INPUT(path, ": must be in [", OptionText(min), ", ", OptionText(max), "], got ", OptionText(value));
+    MCVO_THROW_INPUT(path, ": must be in [", OptionText(min), ", ", OptionText(max), "], got ",
+                     OptionText(value));
   }
 }
 

@@ -1,0 +1,238 @@
+// Track files: bit-exact round trip, and one-line errors naming the file for
+// truncated or foreign files.
+#include "mcvo/frontend/track_file.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "mcvo/util/error.h"
+#include "mcvo/util/file.h"
+
+namespace mcvo {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TempFile(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / "mcvo_track_file_test";
+  fs::create_directories(dir);
+  return dir / name;
+}
+
+// Two cameras; the second has no image in frame 1. Awkward floats (negative
+// zero, denormal, NaN payload) check the bit-exact round trip.
+std::vector<MultiCameraFrame> MakeFrames(int descriptor_size, int descriptor_type) {
+  std::vector<MultiCameraFrame> frames;
+  uint64_t next_id = 1;
+  for (int f = 0; f < 3; ++f) {
+    MultiCameraFrame frame;
+    frame.frame_index = f * 2;
+    frame.t_ns = 1000000000LL * f + 123;
+    for (int c = 0; c < 2; ++c) {
+      CameraFrameResult camera;
+      const bool missing = c == 1 && f == 1;
+      camera.stats.image_missing = missing;
+      const int n = missing ? 0 : 3 + f + c;
+      for (int i = 0; i < n; ++i) {
+        TrackedFeature feature;
+        feature.id = next_id++ + (uint64_t{1} << 40);
+        feature.pixel =
+            Eigen::Vector2f(10.5f * static_cast<float>(i) + 0.1f, -0.0f + static_cast<float>(f) / 3.0f);
+        feature.score = i == 0 ? std::numeric_limits<float>::denorm_min() : 1.0f / static_cast<float>(i + 1);
+        feature.track_length = 1 + i;
+        camera.features.push_back(feature);
+      }
+      if (descriptor_size > 0 && n > 0) {
+        camera.descriptors.create(n, descriptor_size, descriptor_type);
+        cv::randu(camera.descriptors, 0, 255);
+      }
+      camera.stats.tracked = f;
+      camera.stats.new_features = n - f;
+      camera.stats.lost_lk = 7;
+      camera.stats.lost_forward_backward = 2;
+      camera.stats.ransac_inliers = 20 + c;
+      camera.stats.ransac_outliers = 3;
+      camera.stats.mean_track_length = 1.0 / 3.0 + f;
+      camera.stats.sfd = std::sqrt(2.0) * c;
+      camera.stats.seconds_lk = 0.5;  // never stored
+      frame.cameras.push_back(camera);
+    }
+    frames.push_back(frame);
+  }
+  frames[0].cameras[0].features[1].pixel.x() = std::numeric_limits<float>::quiet_NaN();
+  return frames;
+}
+
+TrackFileHeader MakeHeader(int descriptor_size, int descriptor_type) {
+  TrackFileHeader header;
+  header.camera_names = {"image_00", "image_01"};
+  header.descriptor_size = descriptor_size;
+  header.descriptor_type = descriptor_size > 0 ? descriptor_type : 0;
+  header.detector = "xfeat";
+  header.config_json = "{\n  \"frontend\": {\"detector\": \"xfeat\"}\n}\n";
+  return header;
+}
+
+void WriteFrames(const fs::path& path, const TrackFileHeader& header,
+                 const std::vector<MultiCameraFrame>& frames) {
+  TrackFileWriter writer(path, header);
+  for (const MultiCameraFrame& frame : frames) writer.Write(frame);
+  writer.Commit();
+}
+
+bool SameBits(float a, float b) { return std::memcmp(&a, &b, sizeof(a)) == 0; }
+bool SameBits(double a, double b) { return std::memcmp(&a, &b, sizeof(a)) == 0; }
+
+void ExpectRoundTrip(int descriptor_size, int descriptor_type) {
+  const fs::path path = TempFile("round_trip_" + std::to_string(descriptor_size) + ".bin");
+  const TrackFileHeader header = MakeHeader(descriptor_size, descriptor_type);
+  const std::vector<MultiCameraFrame> frames = MakeFrames(descriptor_size, descriptor_type);
+  WriteFrames(path, header, frames);
+
+  TrackFileReader reader(path);
+  EXPECT_EQ(reader.header().camera_names, header.camera_names);
+  EXPECT_EQ(reader.header().descriptor_size, header.descriptor_size);
+  EXPECT_EQ(reader.header().descriptor_type, header.descriptor_type);
+  EXPECT_EQ(reader.header().detector, header.detector);
+  EXPECT_EQ(reader.header().config_json, header.config_json);
+  for (const MultiCameraFrame& expected : frames) {
+    const std::optional<MultiCameraFrame> got = reader.Next();
+    ASSERT_TRUE(got.has_value());
+    EXPECT_EQ(got->frame_index, expected.frame_index);
+    EXPECT_EQ(got->t_ns, expected.t_ns);
+    ASSERT_EQ(got->cameras.size(), expected.cameras.size());
+    for (size_t c = 0; c < expected.cameras.size(); ++c) {
+      const CameraFrameResult& e = expected.cameras[c];
+      const CameraFrameResult& g = got->cameras[c];
+      EXPECT_EQ(g.stats.image_missing, e.stats.image_missing);
+      EXPECT_EQ(g.stats.tracked, e.stats.tracked);
+      EXPECT_EQ(g.stats.new_features, e.stats.new_features);
+      EXPECT_EQ(g.stats.lost_lk, e.stats.lost_lk);
+      EXPECT_EQ(g.stats.lost_forward_backward, e.stats.lost_forward_backward);
+      EXPECT_EQ(g.stats.ransac_inliers, e.stats.ransac_inliers);
+      EXPECT_EQ(g.stats.ransac_outliers, e.stats.ransac_outliers);
+      EXPECT_TRUE(SameBits(g.stats.mean_track_length, e.stats.mean_track_length));
+      EXPECT_TRUE(SameBits(g.stats.sfd, e.stats.sfd));
+      EXPECT_EQ(g.stats.seconds_lk, 0.0);  // timings are not stored
+      ASSERT_EQ(g.features.size(), e.features.size());
+      for (size_t i = 0; i < e.features.size(); ++i) {
+        EXPECT_EQ(g.features[i].id, e.features[i].id);
+        EXPECT_TRUE(SameBits(g.features[i].pixel.x(), e.features[i].pixel.x()));
+        EXPECT_TRUE(SameBits(g.features[i].pixel.y(), e.features[i].pixel.y()));
+        EXPECT_TRUE(SameBits(g.features[i].score, e.features[i].score));
+        EXPECT_EQ(g.features[i].track_length, e.features[i].track_length);
+      }
+      if (descriptor_size == 0 || e.features.empty()) {
+        EXPECT_TRUE(g.descriptors.empty());
+        continue;
+      }
+      ASSERT_EQ(g.descriptors.type(), e.descriptors.type());
+      ASSERT_EQ(g.descriptors.size(), e.descriptors.size());
+      EXPECT_EQ(std::memcmp(g.descriptors.data, e.descriptors.data,
+                            e.descriptors.total() * e.descriptors.elemSize()),
+                0);
+    }
+  }
+  EXPECT_FALSE(reader.Next().has_value());
+  EXPECT_FALSE(reader.Next().has_value());
+}
+
+TEST(TrackFile, RoundTripIsBitExact) {
+  ExpectRoundTrip(0, 0);
+  ExpectRoundTrip(64, CV_32F);
+  ExpectRoundTrip(32, CV_8U);
+}
+
+TEST(TrackFile, WritingTwiceGivesTheSameBytes) {
+  const fs::path a = TempFile("same_a.bin");
+  const fs::path b = TempFile("same_b.bin");
+  cv::setRNGSeed(5);
+  WriteFrames(a, MakeHeader(8, CV_32F), MakeFrames(8, CV_32F));
+  cv::setRNGSeed(5);
+  WriteFrames(b, MakeHeader(8, CV_32F), MakeFrames(8, CV_32F));
+  EXPECT_EQ(ReadFileToString(a), ReadFileToString(b));
+}
+
+TEST(TrackFile, UncommittedWriterLeavesNoFile) {
+  const fs::path path = TempFile("uncommitted.bin");
+  fs::remove(path);
+  {
+    TrackFileWriter writer(path, MakeHeader(0, 0));
+    writer.Write(MakeFrames(0, 0)[0]);
+  }
+  EXPECT_FALSE(fs::exists(path));
+  for (const auto& entry : fs::directory_iterator(path.parent_path())) {
+    EXPECT_EQ(entry.path().filename().string().find("uncommitted.bin.tmp"), std::string::npos);
+  }
+}
+
+// Reads the whole file; returns the InputError message ("" when none).
+std::string ReadAllError(const fs::path& path) {
+  try {
+    TrackFileReader reader(path);
+    while (reader.Next()) {
+    }
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(TrackFile, TruncatedFileNamesFileAndByte) {
+  const fs::path path = TempFile("full.bin");
+  WriteFrames(path, MakeHeader(16, CV_32F), MakeFrames(16, CV_32F));
+  const std::string bytes = ReadFileToString(path);
+  const fs::path cut = TempFile("truncated.bin");
+  // Every cut point fails with a message naming the file, never a crash.
+  for (size_t size = 0; size < bytes.size(); size += 1 + size / 16) {
+    WriteFileAtomic(cut, bytes.substr(0, size));
+    const std::string message = ReadAllError(cut);
+    ASSERT_FALSE(message.empty()) << "cut at " << size;
+    EXPECT_EQ(message.rfind(cut.string() + ": ", 0), 0u) << message;
+    if (size >= 12) {
+      EXPECT_NE(message.find("truncated at byte " + std::to_string(size)), std::string::npos) << message;
+    }
+  }
+  // Cut at the end record: all frames readable, then the missing end record is reported.
+  WriteFileAtomic(cut, bytes.substr(0, bytes.size() - 8));
+  EXPECT_NE(ReadAllError(cut).find("no end record"), std::string::npos);
+  EXPECT_EQ(ReadAllError(path), "");
+}
+
+TEST(TrackFile, BadMagicAndTrailingBytes) {
+  const fs::path path = TempFile("magic.bin");
+  WriteFileAtomic(path, "PK\x03\x04 this is a zip, not a track file");
+  const std::string message = ReadAllError(path);
+  EXPECT_EQ(message.rfind(path.string() + ": not an mcvo track file", 0), 0u) << message;
+
+  WriteFrames(path, MakeHeader(0, 0), MakeFrames(0, 0));
+  WriteFileAtomic(path, ReadFileToString(path) + "x");
+  EXPECT_NE(ReadAllError(path).find("unexpected bytes after the end record"), std::string::npos);
+
+  const fs::path missing = TempFile("does_not_exist.bin");
+  EXPECT_EQ(ReadAllError(missing), missing.string() + ": cannot open track file");
+}
+
+TEST(TrackFile, AbsurdFeatureCountIsReportedNotAllocated) {
+  const fs::path path = TempFile("count.bin");
+  WriteFrames(path, MakeHeader(0, 0), MakeFrames(0, 0));
+  std::string bytes = ReadFileToString(path);
+  // The first camera's feature count sits right after the header, the frame
+  // head (12 bytes) and the camera stats (41 bytes).
+  const size_t header_end = 12 + (static_cast<uint8_t>(bytes[8]) | static_cast<uint8_t>(bytes[9]) << 8);
+  const size_t count_at = header_end + 12 + 41;
+  ASSERT_EQ(static_cast<uint8_t>(bytes[count_at]), 3);
+  bytes[count_at + 3] = '\x7f';
+  WriteFileAtomic(path, bytes);
+  EXPECT_NE(ReadAllError(path).find("announces"), std::string::npos) << ReadAllError(path);
+}
+
+}  // namespace
+}  // namespace mcvo
