@@ -158,6 +158,18 @@ struct ScalePairResidual {
   Eigen::Vector3d q_i_, q_j_, theta_;
 };
 
+// The part both solvers share: the input checks, the stacked system and the
+// observability test (a property of the data, not of the solver). False when
+// the window is rejected; `result` then holds the reason.
+bool PrepareSolve(const std::vector<CameraWindowTrack>& cameras, const RigScaleOptions& options,
+                  RigScaleResult* result, StackedSystem* sys, Eigen::VectorXd* column_norms,
+                  Eigen::JacobiSVD<Eigen::MatrixXd>* svd) {
+  result->reason = NonFiniteReason(cameras);
+  if (!result->reason.empty()) return false;
+  *sys = Stack(cameras);
+  return CheckObservable(*sys, options, result, column_norms, svd);
+}
+
 }  // namespace
 
 RigScaleResult SolveRigScalesLinear(const std::vector<CameraWindowTrack>& cameras,
@@ -165,12 +177,10 @@ RigScaleResult SolveRigScalesLinear(const std::vector<CameraWindowTrack>& camera
   options.Check();
   CheckWindow(cameras);
   RigScaleResult result;
-  result.reason = NonFiniteReason(cameras);
-  if (!result.reason.empty()) return result;
-  const StackedSystem sys = Stack(cameras);
+  StackedSystem sys;
   Eigen::VectorXd column_norms;
   Eigen::JacobiSVD<Eigen::MatrixXd> svd;
-  if (!CheckObservable(sys, options, &result, &column_norms, &svd)) return result;
+  if (!PrepareSolve(cameras, options, &result, &sys, &column_norms, &svd)) return result;
   // F D^-1 (D s) = -theta, D = diag(column norms).
   const Eigen::VectorXd normalised_scales = svd.solve(-sys.theta);
   Accept(sys, normalised_scales.cwiseQuotient(column_norms), options, &result);
@@ -187,13 +197,10 @@ RigScaleResult SolveRigScalesCeres(const std::vector<CameraWindowTrack>& cameras
   for (double s : initial_scales)
     MCVO_CHECK_MSG(s > 0.0 && std::isfinite(s), "initial scale must be > 0, got ", s);
   RigScaleResult result;
-  result.reason = NonFiniteReason(cameras);
-  if (!result.reason.empty()) return result;
-  const StackedSystem sys = Stack(cameras);
+  StackedSystem sys;
   Eigen::VectorXd column_norms;
   Eigen::JacobiSVD<Eigen::MatrixXd> svd;
-  // Observability is a property of the data, not of the solver: the same test as the linear solve.
-  if (!CheckObservable(sys, options, &result, &column_norms, &svd)) return result;
+  if (!PrepareSolve(cameras, options, &result, &sys, &column_norms, &svd)) return result;
 
   const int n = static_cast<int>(cameras.size());
   std::vector<double> log_scales(n);
