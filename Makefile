@@ -15,7 +15,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # Debian 12 package names. colmap is the real binary that later checks our
 # COLMAP exports; chromium renders reports in tests.
 DEB_PACKAGES := build-essential cmake pkg-config git ca-certificates \
-  libeigen3-dev libceres-dev libsuitesparse-dev libgoogle-glog-dev libgflags-dev \
+  libeigen3-dev libceres-dev libsuitesparse-dev libssl-dev libgoogle-glog-dev libgflags-dev \
   libopencv-dev libopencv-contrib-dev nlohmann-json3-dev libyaml-cpp-dev \
   libgtest-dev libgmock-dev libopengv-dev colmap \
   clang-format clang-tidy

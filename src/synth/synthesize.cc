@@ -33,24 +33,6 @@ const std::vector<std::pair<std::string_view, std::string_view>>& EmbeddedRigFil
 namespace {
 
 // Removes a folder on scope exit unless released: a failed run leaves nothing.
-class TemporaryFolder {
- public:
-  explicit TemporaryFolder(std::filesystem::path path) : path_(std::move(path)) {}
-  ~TemporaryFolder() {
-    if (!path_.empty()) {
-      std::error_code ec;
-      std::filesystem::remove_all(path_, ec);
-    }
-  }
-  TemporaryFolder(const TemporaryFolder&) = delete;
-  TemporaryFolder& operator=(const TemporaryFolder&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-  void Release() { path_.clear(); }
-
- private:
-  std::filesystem::path path_;
-};
-
 std::string FrameFileName(int frame) {
   std::ostringstream name;
   name << std::setw(6) << std::setfill('0') << frame << ".png";

@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <system_error>
+#include <utility>
 
 namespace mcvo {
 
@@ -40,5 +42,26 @@ std::string ReadFileToString(const std::filesystem::path& path);
 
 // Creates `dir` (and parents); throws InputError naming it on failure.
 void CreateDirectories(const std::filesystem::path& dir);
+
+// A folder removed with everything in it when the object goes out of scope,
+// unless Release() was called: the staging folder of outputs that are
+// renamed into place only when complete.
+class TemporaryFolder {
+ public:
+  explicit TemporaryFolder(std::filesystem::path path) : path_(std::move(path)) {}
+  ~TemporaryFolder() {
+    if (!path_.empty()) {
+      std::error_code ec;
+      std::filesystem::remove_all(path_, ec);
+    }
+  }
+  TemporaryFolder(const TemporaryFolder&) = delete;
+  TemporaryFolder& operator=(const TemporaryFolder&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  void Release() { path_.clear(); }
+
+ private:
+  std::filesystem::path path_;
+};
 
 }  // namespace mcvo
