@@ -1,6 +1,7 @@
 // `mcvo track`: runs the frontend over a whole sequence and writes the track
-// file (docs/track-format.md), so the back end can run without the images,
-// plus per-frame statistics (CSV) and, on request, per-stage timings (JSON).
+// file (docs/track-format.md) with the features and the cross-camera matches,
+// so the back end can run without the images, plus per-frame statistics (CSV)
+// and, on request, per-stage timings (JSON).
 //
 // Order of work: flags and config, dataset metadata, then the tracker (which
 // builds every detector and loads and checks any network model), then the
@@ -41,12 +42,8 @@ double SecondsSince(Clock::time_point start) {
 
 template <typename Enum, size_t N>
 Enum ParseEnumFlag(const EnumName<Enum> (&table)[N], const std::string& flag, const std::string& text) {
-  std::string known;
-  for (const EnumName<Enum>& entry : table) {
-    if (text == entry.name) return entry.value;
-    known += (known.empty() ? "" : ", ") + std::string(entry.name);
-  }
-  throw UsageError(StrCat("--", flag, ": unknown value '", text, "' (known: ", known, ")"));
+  if (const std::optional<Enum> value = EnumFromName(table, text)) return *value;
+  throw UsageError(StrCat("--", flag, ": unknown value '", text, "' (known: ", EnumNameList(table), ")"));
 }
 
 // Whole-run sums behind the summary log line and the --timing file.
@@ -62,10 +59,13 @@ struct RunTotals {
   // Seconds per stage, summed over frames (and over cameras for the stages
   // that run per camera).
   double decode_wait = 0.0, pyramid = 0.0, lk = 0.0, ransac = 0.0, detect = 0.0, select = 0.0,
-         track_wall = 0.0, write = 0.0, total = 0.0;
+         cross_camera = 0.0, track_wall = 0.0, write = 0.0, total = 0.0;
+  int64_t cross_matches = 0;
 
   void Add(const MultiCameraFrame& frame) {
     ++frames;
+    for (const CrossCameraPairStats& pair : frame.cross_pair_stats) cross_camera += pair.seconds;
+    cross_matches += static_cast<int64_t>(frame.cross_matches.size());
     for (const CameraFrameResult& camera : frame.cameras) {
       const CameraFrameStats& s = camera.stats;
       pyramid += s.seconds_pyramid;
@@ -103,7 +103,7 @@ void AppendStatsRows(const MultiCameraFrame& frame, const Rig& rig, std::string*
     *csv += StrCat(frame.frame_index, ",", frame.t_ns, ",", rig.cameras[c].name, ",", s.tracked, ",",
                    s.new_features, ",", s.ransac_inliers, ",", s.ransac_outliers, ",",
                    FormatDouble(s.mean_track_length), ",", FormatDouble(s.sfd), ",", s.image_missing ? 1 : 0,
-                   "\n");
+                   ",", CountCrossCameraMatches(frame, static_cast<int>(c)), "\n");
   }
 }
 
@@ -114,9 +114,10 @@ void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const st
   nlohmann::ordered_json json;
   json["note"] =
       "wall-clock timings, not deterministic. Stage seconds are per rig frame, summed over cameras "
-      "(the work of one frame on one core); track_wall is the wall time of MultiCameraTracker::Track "
-      "(cameras in parallel); decode_wait is the time the tracking thread was blocked waiting for "
-      "decoded images (0 when the decoding threads keep up); total is the wall time per frame.";
+      "(the work of one frame on one core; cross_camera: summed over camera pairs); track_wall is the wall "
+      "time of MultiCameraTracker::Track (cameras, then camera pairs, in parallel); decode_wait is the time "
+      "the tracking thread was blocked waiting for decoded images (0 when the decoding threads keep up); "
+      "total is the wall time per frame.";
   json["detector"] = detector;
   json["selection"] = selection;
   json["frames"] = t.frames;
@@ -130,6 +131,7 @@ void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const st
   seconds["detection"] = t.detect / n;
   seconds["ransac"] = t.ransac / n;
   seconds["selection"] = t.select / n;
+  seconds["cross_camera"] = t.cross_camera / n;
   seconds["track_wall"] = t.track_wall / n;
   seconds["write"] = t.write / n;
   seconds["total"] = t.total / n;
@@ -144,6 +146,7 @@ void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const st
   quality["mean_track_length"] = t.MeanTrackLength();
   quality["inlier_ratio"] = t.InlierRatio();
   quality["mean_sfd"] = t.MeanSfd();
+  quality["cross_camera_matches_per_frame"] = static_cast<double>(t.cross_matches) / n;
   json["quality"] = quality;
   WriteFileAtomic(path, io_internal::PrettyJson(json));
 }
@@ -166,7 +169,7 @@ int RunTrack(int argc, const char* const* argv) {
               "threads over cameras and for decoding; 0: all cores (overrides the config)");
   args.AddInt("frames", &max_frames, "track the first N frames only; 0: all");
   args.AddString("out", &out_path, "FILE", "track file to write (docs/track-format.md)", true);
-  args.AddString("stats", &stats_path, "FILE", "per-frame, per-camera statistics CSV");
+  args.AddString("stats", &stats_path, "FILE", "per-frame, per-camera statistics CSV (docs/track-format.md)");
   args.AddString("timing", &timing_path, "FILE",
                  "per-stage seconds per frame and summary metrics as JSON (wall-clock: not deterministic)");
   args.AddEpilog(
@@ -221,13 +224,21 @@ int RunTrack(int argc, const char* const* argv) {
     MCVO_THROW_INPUT(timing_path, ": folder ", timing_dir.string(), " does not exist");
   }
   std::string csv =
-      "frame,t_ns,camera,tracked,new,ransac_inliers,ransac_outliers,mean_track_length,sfd,image_missing\n";
+      "frame,t_ns,camera,tracked,new,ransac_inliers,ransac_outliers,mean_track_length,sfd,image_missing,"
+      "cross_matches\n";
 
   const int total_frames = max_frames > 0 ? std::min<int>(max_frames, static_cast<int>(index.frames.size()))
                                           : static_cast<int>(index.frames.size());
   MCVO_LOG(kInfo, "track: ", index.name, " (", index.format, "), ", total_frames, " frames, ",
            index.rig.NumCameras(), " cameras, detector ", header.detector, ", selection ",
            EnumToName(kFeatureSelectionNames, options.frontend.selection), ", ", worker_threads, " threads");
+  std::string pair_names;
+  for (const auto& [a, b] : tracker.CrossCameraPairs()) {
+    pair_names += StrCat(pair_names.empty() ? "" : ", ", index.rig.cameras[static_cast<size_t>(a)].name, "-",
+                         index.rig.cameras[static_cast<size_t>(b)].name);
+  }
+  MCVO_LOG(kInfo, "track: cross-camera matching of ",
+           pair_names.empty() ? std::string("no camera pairs") : "the pairs " + pair_names);
   FrameStreamOptions stream_options;
   stream_options.threads = worker_threads;
   FrameStream stream(index, stream_options);
@@ -265,7 +276,9 @@ int RunTrack(int argc, const char* const* argv) {
            FormatFixed(totals.frames / std::max(totals.total, 1e-9), 2), " fps); mean track length ",
            FormatFixed(totals.MeanTrackLength(), 2), " frames over ", totals.track_lengths.size(),
            " tracks; RANSAC inlier ratio ", FormatFixed(totals.InlierRatio(), 4), "; mean SFD ",
-           FormatFixed(totals.MeanSfd(), 3), "; wrote ", out_path);
+           FormatFixed(totals.MeanSfd(), 3), "; ",
+           FormatFixed(static_cast<double>(totals.cross_matches) / std::max(1, totals.frames), 1),
+           " cross-camera matches per frame; wrote ", out_path);
   return kExitOk;
 }
 

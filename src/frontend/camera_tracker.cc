@@ -280,6 +280,8 @@ void CameraTracker::AssignNewIds(uint64_t* next_id, CameraFrameResult* result) {
   }
 }
 
+const std::vector<cv::Mat>& CameraTracker::Pyramid() const { return impl_->prev_pyramid; }
+
 int CameraTracker::DescriptorSize() const { return impl_->detector->DescriptorSize(); }
 int CameraTracker::DescriptorType() const { return impl_->detector->DescriptorType(); }
 

@@ -26,6 +26,11 @@ void FrontendOptions::Check() const {
   CheckInRange("/frontend/superpoint/confidence_threshold", superpoint.confidence_threshold, 0.0, 1.0);
   CheckAtLeast("/frontend/superpoint/nms_radius_px", superpoint.nms_radius_px, 0);
   CheckAtLeast("/frontend/superpoint/border_px", superpoint.border_px, 0);
+  CheckInRange("/frontend/cross_camera/min_view_overlap", cross_camera.min_view_overlap, 0.0, 1.0);
+  CheckPositive("/frontend/cross_camera/init_distance_m", cross_camera.init_distance_m);
+  CheckPositive("/frontend/cross_camera/epipolar_threshold_px", cross_camera.epipolar_threshold_px);
+  CheckInRange("/frontend/cross_camera/min_angle_deg", cross_camera.min_angle_deg, 0.0, 90.0);
+  CheckAtLeast("/frontend/cross_camera/max_matches_per_pair", cross_camera.max_matches_per_pair, 0);
 }
 
 }  // namespace mcvo

@@ -8,6 +8,10 @@
 // over rows) compute each output element independently of how the work is
 // split, so their results do not depend on cv::getNumThreads();
 // multi_camera_tracker_test checks threads 1 vs 2 bit for bit.
+//
+// Cross-camera matching runs after the ids are assigned (a match names its
+// feature by id), the same way: pairs on worker threads into pre-sized slots,
+// concatenated in pair order, which is the (camera_a, camera_b) order.
 #include "mcvo/frontend/multi_camera_tracker.h"
 
 #include <algorithm>
@@ -15,13 +19,49 @@
 #include <exception>
 #include <thread>
 
+#include "mcvo/frontend/cross_camera.h"
 #include "mcvo/frontend/detector.h"
 #include "mcvo/util/error.h"
 
 namespace mcvo {
+namespace {
+
+// Runs work(i) for i in [0, n) on up to `threads` threads (the calling one
+// included); rethrows the exception of the smallest failing i.
+template <typename Work>
+void ParallelFor(size_t n, int threads, Work&& work) {
+  std::vector<std::exception_ptr> errors(n);
+  std::atomic<size_t> next{0};
+  auto worker = [&]() {
+    for (size_t i = next++; i < n; i = next++) {
+      try {
+        work(i);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  const size_t workers = std::min(n, static_cast<size_t>(std::max(1, threads)));
+  std::vector<std::thread> pool;
+  for (size_t w = 1; w < workers; ++w) pool.emplace_back(worker);
+  worker();
+  for (std::thread& thread : pool) thread.join();
+  for (const std::exception_ptr& error : errors) {
+    if (error) std::rethrow_exception(error);
+  }
+}
+
+}  // namespace
+
+int CountCrossCameraMatches(const MultiCameraFrame& frame, int camera_a) {
+  return static_cast<int>(std::count_if(frame.cross_matches.begin(), frame.cross_matches.end(),
+                                        [&](const CrossCameraMatch& m) { return m.camera_a == camera_a; }));
+}
 
 struct MultiCameraTracker::Impl {
   std::vector<std::unique_ptr<CameraTracker>> trackers;
+  std::vector<std::pair<int, int>> pairs;
+  std::vector<std::unique_ptr<CrossCameraMatcher>> matchers;  // one per pair
   int threads = 1;
   uint64_t next_id = 1;  // 0 means "not assigned yet"
 };
@@ -38,6 +78,16 @@ MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat
     impl_->trackers.push_back(std::make_unique<CameraTracker>(rig.cameras[static_cast<size_t>(c)], mask,
                                                               options, CreateDetector(options)));
   }
+  impl_->pairs = SelectCrossCameraPairs(rig, masks, options.cross_camera);
+  // Each matcher computes its warp map (one Unproject + Project per pixel of
+  // camera a: ~0.2 s for a 1408 x 376 camera), so pairs are built in parallel.
+  impl_->matchers.resize(impl_->pairs.size());
+  ParallelFor(impl_->pairs.size(), impl_->threads, [&](size_t i) {
+    const auto [a, b] = impl_->pairs[i];
+    const cv::Mat mask_b = masks.empty() ? cv::Mat() : masks[static_cast<size_t>(b)];
+    impl_->matchers[i] = std::make_unique<CrossCameraMatcher>(
+        a, b, rig.cameras[static_cast<size_t>(a)], rig.cameras[static_cast<size_t>(b)], mask_b, options);
+  });
 }
 
 MultiCameraTracker::~MultiCameraTracker() = default;
@@ -52,28 +102,27 @@ MultiCameraFrame MultiCameraTracker::Track(int frame_index, int64_t t_ns,
   frame.frame_index = frame_index;
   frame.t_ns = t_ns;
   frame.cameras.resize(n);
-  std::vector<std::exception_ptr> errors(n);
-  std::atomic<size_t> next_camera{0};
-  auto work = [&]() {
-    for (size_t c = next_camera++; c < n; c = next_camera++) {
-      try {
-        frame.cameras[c] = impl_->trackers[c]->Track(images[c]);
-      } catch (...) {
-        errors[c] = std::current_exception();
-      }
-    }
-  };
-  const size_t workers = std::min(n, static_cast<size_t>(impl_->threads));
-  std::vector<std::thread> pool;
-  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
-  work();
-  for (std::thread& thread : pool) thread.join();
-  for (const std::exception_ptr& error : errors) {
-    if (error) std::rethrow_exception(error);  // the first failing camera, in camera order
-  }
+  // An exception: the first failing camera's, in camera order.
+  ParallelFor(n, impl_->threads, [&](size_t c) { frame.cameras[c] = impl_->trackers[c]->Track(images[c]); });
   for (size_t c = 0; c < n; ++c) impl_->trackers[c]->AssignNewIds(&impl_->next_id, &frame.cameras[c]);
+
+  const size_t p = impl_->matchers.size();
+  std::vector<std::vector<CrossCameraMatch>> matches(p);
+  frame.cross_pair_stats.resize(p);
+  ParallelFor(p, impl_->threads, [&](size_t i) {
+    const CrossCameraMatcher& matcher = *impl_->matchers[i];
+    const size_t a = static_cast<size_t>(matcher.camera_a());
+    const size_t b = static_cast<size_t>(matcher.camera_b());
+    matches[i] = matcher.Match(frame.cameras[a].features, impl_->trackers[a]->Pyramid(),
+                               impl_->trackers[b]->Pyramid(), &frame.cross_pair_stats[i]);
+  });
+  for (const std::vector<CrossCameraMatch>& pair_matches : matches) {
+    frame.cross_matches.insert(frame.cross_matches.end(), pair_matches.begin(), pair_matches.end());
+  }
   return frame;
 }
+
+const std::vector<std::pair<int, int>>& MultiCameraTracker::CrossCameraPairs() const { return impl_->pairs; }
 
 int MultiCameraTracker::DescriptorSize() const {
   return impl_->trackers.empty() ? 0 : impl_->trackers.front()->DescriptorSize();

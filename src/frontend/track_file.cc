@@ -10,6 +10,8 @@
 #include <cstring>
 #include <limits>
 #include <string_view>
+#include <tuple>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -21,7 +23,10 @@ namespace mcvo {
 namespace {
 
 constexpr std::string_view kMagic = "MCVOTRK1";
-constexpr int kFormatVersion = 1;
+// 2: frames end with the cross-camera block. Version 1 files (no such block)
+// are still read, as frames without cross-camera matches.
+constexpr int kFormatVersion = 2;
+constexpr int kOldestFormatVersion = 1;
 // frame_index of the end record that closes a complete file.
 constexpr int32_t kEndMarker = -1;
 // Sanity limits: anything beyond these is a corrupt file, not a big one.
@@ -31,6 +36,8 @@ constexpr int kMaxDescriptorSize = 4096;
 // Bytes of the fixed part of a camera record (docs/track-format.md).
 constexpr size_t kCameraStatsBytes = 6 * 4 + 2 * 8 + 1;
 constexpr size_t kFeatureFixedBytes = 8 + 3 * 4 + 4;
+constexpr size_t kPairStatsBytes = 10 * 4;
+constexpr size_t kMatchBytes = 1 + 8 + 1 + 2 * 4;
 
 size_t DescriptorElementBytes(int type) { return type == CV_32F ? 4 : 1; }
 
@@ -189,6 +196,38 @@ void TrackFileWriter::Write(const MultiCameraFrame& frame) {
       }
     }
   }
+  // Cross-camera block (format version 2).
+  const int num_cameras = static_cast<int>(frame.cameras.size());
+  PutU32(&out, static_cast<uint32_t>(frame.cross_pair_stats.size()));
+  for (size_t i = 0; i < frame.cross_pair_stats.size(); ++i) {
+    const CrossCameraPairStats& p = frame.cross_pair_stats[i];
+    MCVO_CHECK_MSG(p.camera_a >= 0 && p.camera_a < p.camera_b && p.camera_b < num_cameras, "pair ",
+                   p.camera_a, "-", p.camera_b);
+    MCVO_CHECK_MSG(i == 0 || std::make_pair(frame.cross_pair_stats[i - 1].camera_a,
+                                            frame.cross_pair_stats[i - 1].camera_b) <
+                                 std::make_pair(p.camera_a, p.camera_b),
+                   "pair stats not in increasing (camera_a, camera_b) order");
+    for (int value : {p.camera_a, p.camera_b, p.features, p.outside_view, p.lost_lk, p.lost_forward_backward,
+                      p.lost_epipolar, p.lost_triangulation, p.over_limit, p.matches}) {
+      PutI32(&out, ToI32(value));
+    }
+  }
+  PutU32(&out, static_cast<uint32_t>(frame.cross_matches.size()));
+  for (size_t i = 0; i < frame.cross_matches.size(); ++i) {
+    const CrossCameraMatch& m = frame.cross_matches[i];
+    MCVO_CHECK_MSG(m.camera_a >= 0 && m.camera_a < m.camera_b && m.camera_b < num_cameras, "match ",
+                   m.camera_a, "-", m.camera_b);
+    if (i > 0) {
+      const CrossCameraMatch& p = frame.cross_matches[i - 1];
+      MCVO_CHECK_MSG(std::tie(p.camera_a, p.camera_b, p.id_a) < std::tie(m.camera_a, m.camera_b, m.id_a),
+                     "cross-camera matches not sorted by (camera_a, camera_b, id_a) without duplicates");
+    }
+    PutU8(&out, static_cast<uint8_t>(m.camera_a));
+    PutU64(&out, m.id_a);
+    PutU8(&out, static_cast<uint8_t>(m.camera_b));
+    PutF32(&out, m.pixel_b.x());
+    PutF32(&out, m.pixel_b.y());
+  }
   impl_->file.stream().write(out.data(), static_cast<std::streamsize>(out.size()));
   ++impl_->frames;
 }
@@ -211,6 +250,7 @@ struct TrackFileReader::Impl {
   uint64_t offset = 0;  // bytes consumed
   TrackFileHeader header;
   size_t descriptor_bytes = 0;
+  bool cross_camera = false;  // frames have the cross-camera block (version >= 2)
   uint32_t frames = 0;
   bool done = false;
   std::string buffer;
@@ -230,14 +270,86 @@ struct TrackFileReader::Impl {
     return ByteCursor(buffer.data());
   }
   void ParseHeader(const std::string& text);
+  // Reads a u32 count of records of record_bytes each that the rest of the
+  // file must be able to hold.
+  uint32_t ReadCount(int frame_index, size_t record_bytes, const char* what);
+  void ReadCrossCameraBlock(int frame_index, MultiCameraFrame* frame);
 };
+
+uint32_t TrackFileReader::Impl::ReadCount(int frame_index, size_t record_bytes, const char* what) {
+  const uint64_t at = offset;
+  const uint32_t n = Read(4).U32();
+  if (static_cast<uint64_t>(n) * record_bytes > size - offset) {
+    MCVO_THROW_INPUT(path.string(), ": truncated at byte ", size, " (frame ", frame_index, " announces ", n,
+                     " ", what, " at byte ", at, ")");
+  }
+  return n;
+}
+
+void TrackFileReader::Impl::ReadCrossCameraBlock(int frame_index, MultiCameraFrame* frame) {
+  const int num_cameras = static_cast<int>(header.camera_names.size());
+  const uint32_t pairs = ReadCount(frame_index, kPairStatsBytes, "cross-camera pairs");
+  frame->cross_pair_stats.resize(pairs);
+  for (uint32_t i = 0; i < pairs; ++i) {
+    const uint64_t at = offset;
+    ByteCursor c = Read(kPairStatsBytes);
+    CrossCameraPairStats& p = frame->cross_pair_stats[i];
+    p.camera_a = c.I32();
+    p.camera_b = c.I32();
+    for (int* value : {&p.features, &p.outside_view, &p.lost_lk, &p.lost_forward_backward, &p.lost_epipolar,
+                       &p.lost_triangulation, &p.over_limit, &p.matches}) {
+      *value = c.I32();
+      if (*value < 0) {
+        offset = at;
+        Corrupt("negative count in cross-camera pair record");
+      }
+    }
+    const bool increasing = i == 0 || std::make_pair(frame->cross_pair_stats[i - 1].camera_a,
+                                                     frame->cross_pair_stats[i - 1].camera_b) <
+                                          std::make_pair(p.camera_a, p.camera_b);
+    if (!(p.camera_a >= 0 && p.camera_a < p.camera_b && p.camera_b < num_cameras) || !increasing) {
+      offset = at;
+      Corrupt("cross-camera pair " + std::to_string(p.camera_a) + "-" + std::to_string(p.camera_b) +
+              ": expected 0 <= camera_a < camera_b < " + std::to_string(num_cameras) +
+              ", pairs in increasing order");
+    }
+  }
+  const uint32_t n = ReadCount(frame_index, kMatchBytes, "cross-camera matches");
+  ByteCursor c = Read(static_cast<size_t>(n) * kMatchBytes);
+  const uint64_t first = offset - static_cast<uint64_t>(n) * kMatchBytes;
+  frame->cross_matches.resize(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    CrossCameraMatch& m = frame->cross_matches[i];
+    m.camera_a = c.U8();
+    m.id_a = c.U64();
+    m.camera_b = c.U8();
+    const float x = c.F32();
+    const float y = c.F32();
+    m.pixel_b = Eigen::Vector2f(x, y);
+    const bool increasing =
+        i == 0 || std::tie(frame->cross_matches[i - 1].camera_a, frame->cross_matches[i - 1].camera_b,
+                           frame->cross_matches[i - 1].id_a) < std::tie(m.camera_a, m.camera_b, m.id_a);
+    if (!(m.camera_a < m.camera_b && m.camera_b < num_cameras) || !increasing) {
+      offset = first + static_cast<uint64_t>(i) * kMatchBytes;
+      Corrupt("cross-camera match " + std::to_string(i) + " (camera " + std::to_string(m.camera_a) + " id " +
+              std::to_string(m.id_a) + " in camera " + std::to_string(m.camera_b) +
+              "): expected camera_a < camera_b < " + std::to_string(num_cameras) +
+              ", sorted by (camera_a, camera_b, id) without duplicates");
+    }
+  }
+}
 
 void TrackFileReader::Impl::ParseHeader(const std::string& text) {
   try {
     const nlohmann::json json = nlohmann::json::parse(text);
-    if (json.at("format_version").get<int>() != kFormatVersion) {
-      Corrupt("unsupported format_version " + json.at("format_version").dump() + " (this reader: 1)");
+    const nlohmann::json& version = json.at("format_version");
+    if (!version.is_number_integer() || version.get<int64_t>() < kOldestFormatVersion ||
+        version.get<int64_t>() > kFormatVersion) {
+      Corrupt("unsupported format_version " + version.dump() + " (this reader: " +
+              std::to_string(kOldestFormatVersion) + " to " + std::to_string(kFormatVersion) + ")");
     }
+    header.format_version = version.get<int>();
+    cross_camera = header.format_version >= 2;
     header.camera_names = json.at("cameras").get<std::vector<std::string>>();
     header.descriptor_size = json.at("descriptor_size").get<int>();
     const std::string type = json.at("descriptor_type").get<std::string>();
@@ -358,6 +470,7 @@ std::optional<MultiCameraFrame> TrackFileReader::Next() {
       }
     }
   }
+  if (r.cross_camera) r.ReadCrossCameraBlock(frame_index, &frame);
   ++r.frames;
   return frame;
 }

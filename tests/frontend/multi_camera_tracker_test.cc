@@ -101,6 +101,22 @@ void ExpectIdentical(const std::vector<MultiCameraFrame>& a, const std::vector<M
       EXPECT_EQ(sa.mean_track_length, sb.mean_track_length);
       EXPECT_EQ(sa.sfd, sb.sfd);
     }
+    ASSERT_EQ(a[f].cross_matches.size(), b[f].cross_matches.size()) << "frame " << f;
+    for (size_t i = 0; i < a[f].cross_matches.size(); ++i) {
+      const CrossCameraMatch& ma = a[f].cross_matches[i];
+      const CrossCameraMatch& mb = b[f].cross_matches[i];
+      EXPECT_EQ(ma.camera_a, mb.camera_a);
+      EXPECT_EQ(ma.camera_b, mb.camera_b);
+      EXPECT_EQ(ma.id_a, mb.id_a);
+      EXPECT_TRUE(SameBits(ma.pixel_b.x(), mb.pixel_b.x()));
+      EXPECT_TRUE(SameBits(ma.pixel_b.y(), mb.pixel_b.y()));
+    }
+    ASSERT_EQ(a[f].cross_pair_stats.size(), b[f].cross_pair_stats.size());
+    for (size_t p = 0; p < a[f].cross_pair_stats.size(); ++p) {
+      EXPECT_EQ(a[f].cross_pair_stats[p].matches, b[f].cross_pair_stats[p].matches);
+      EXPECT_EQ(a[f].cross_pair_stats[p].lost_forward_backward,
+                b[f].cross_pair_stats[p].lost_forward_backward);
+    }
   }
 }
 
@@ -120,6 +136,10 @@ TEST(MultiCameraTrackerTest, SameResultWithOneAndTwoThreads) {
   int tracked = 0;
   for (const CameraFrameResult& r : one.back().cameras) tracked += r.stats.tracked;
   EXPECT_GT(tracked, 50);
+  // The KITTI-360 rig: every pair of its 4 cameras overlaps (the fisheyes
+  // see beyond 180 deg), and pairs are matched in parallel too.
+  EXPECT_EQ(one.back().cross_pair_stats.size(), 6u);
+  EXPECT_FALSE(one.back().cross_matches.empty());
 }
 
 TEST(MultiCameraTrackerTest, NewIdsAreUniqueAndIncreaseInCameraOrder) {

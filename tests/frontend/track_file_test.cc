@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <limits>
 #include <string>
+#include <tuple>
 
 #include <opencv2/core.hpp>
 
@@ -64,9 +65,31 @@ std::vector<MultiCameraFrame> MakeFrames(int descriptor_size, int descriptor_typ
       camera.stats.seconds_lk = 0.5;  // never stored
       frame.cameras.push_back(camera);
     }
+    // Cross-camera matches of camera 0's features in camera 1 (none in
+    // frame 1, where camera 1 has no image).
+    CrossCameraPairStats pair;
+    pair.camera_a = 0;
+    pair.camera_b = 1;
+    pair.features = static_cast<int>(frame.cameras[0].features.size());
+    if (f != 1) {
+      for (size_t i = 0; i < frame.cameras[0].features.size(); i += 2) {
+        CrossCameraMatch match;
+        match.camera_a = 0;
+        match.id_a = frame.cameras[0].features[i].id;
+        match.camera_b = 1;
+        match.pixel_b = Eigen::Vector2f(0.25f * static_cast<float>(i) - 0.0f, 1.0f / 7.0f);
+        frame.cross_matches.push_back(match);
+      }
+      pair.matches = static_cast<int>(frame.cross_matches.size());
+      pair.lost_epipolar = 1;
+      pair.outside_view = pair.features - pair.lost_epipolar - pair.matches;
+    }
+    pair.seconds = 0.25;  // never stored
+    frame.cross_pair_stats.push_back(pair);
     frames.push_back(frame);
   }
   frames[0].cameras[0].features[1].pixel.x() = std::numeric_limits<float>::quiet_NaN();
+  frames[2].cross_matches[0].pixel_b.y() = std::numeric_limits<float>::denorm_min();
   return frames;
 }
 
@@ -102,6 +125,7 @@ void ExpectRoundTrip(int descriptor_size, int descriptor_type) {
   EXPECT_EQ(reader.header().descriptor_type, header.descriptor_type);
   EXPECT_EQ(reader.header().detector, header.detector);
   EXPECT_EQ(reader.header().config_json, header.config_json);
+  EXPECT_EQ(reader.header().format_version, 2);
   for (const MultiCameraFrame& expected : frames) {
     const std::optional<MultiCameraFrame> got = reader.Next();
     ASSERT_TRUE(got.has_value());
@@ -138,6 +162,27 @@ void ExpectRoundTrip(int descriptor_size, int descriptor_type) {
       EXPECT_EQ(std::memcmp(g.descriptors.data, e.descriptors.data,
                             e.descriptors.total() * e.descriptors.elemSize()),
                 0);
+    }
+    ASSERT_EQ(got->cross_matches.size(), expected.cross_matches.size());
+    for (size_t i = 0; i < expected.cross_matches.size(); ++i) {
+      const CrossCameraMatch& e = expected.cross_matches[i];
+      const CrossCameraMatch& g = got->cross_matches[i];
+      EXPECT_EQ(g.camera_a, e.camera_a);
+      EXPECT_EQ(g.id_a, e.id_a);
+      EXPECT_EQ(g.camera_b, e.camera_b);
+      EXPECT_TRUE(SameBits(g.pixel_b.x(), e.pixel_b.x()));
+      EXPECT_TRUE(SameBits(g.pixel_b.y(), e.pixel_b.y()));
+    }
+    ASSERT_EQ(got->cross_pair_stats.size(), expected.cross_pair_stats.size());
+    for (size_t i = 0; i < expected.cross_pair_stats.size(); ++i) {
+      const CrossCameraPairStats& e = expected.cross_pair_stats[i];
+      const CrossCameraPairStats& g = got->cross_pair_stats[i];
+      EXPECT_EQ(
+          std::tie(g.camera_a, g.camera_b, g.features, g.outside_view, g.lost_lk, g.lost_forward_backward,
+                   g.lost_epipolar, g.lost_triangulation, g.over_limit, g.matches),
+          std::tie(e.camera_a, e.camera_b, e.features, e.outside_view, e.lost_lk, e.lost_forward_backward,
+                   e.lost_epipolar, e.lost_triangulation, e.over_limit, e.matches));
+      EXPECT_EQ(g.seconds, 0.0);  // timings are not stored
     }
   }
   EXPECT_FALSE(reader.Next().has_value());
@@ -232,6 +277,92 @@ TEST(TrackFile, AbsurdFeatureCountIsReportedNotAllocated) {
   bytes[count_at + 3] = '\x7f';
   WriteFileAtomic(path, bytes);
   EXPECT_NE(ReadAllError(path).find("announces"), std::string::npos) << ReadAllError(path);
+}
+
+// Byte offset where frame record `index` starts in a file written by
+// WriteFrames(MakeHeader(0, 0), frames) (no descriptors).
+size_t FrameOffset(const std::string& bytes, const std::vector<MultiCameraFrame>& frames, size_t index,
+                   bool cross_camera_block = true) {
+  size_t at = 12 + (static_cast<uint8_t>(bytes[8]) | static_cast<uint8_t>(bytes[9]) << 8);
+  for (size_t f = 0; f < index; ++f) {
+    at += 12;
+    for (const CameraFrameResult& camera : frames[f].cameras) at += 45 + 24 * camera.features.size();
+    if (cross_camera_block)
+      at += 8 + 40 * frames[f].cross_pair_stats.size() + 18 * frames[f].cross_matches.size();
+  }
+  return at;
+}
+
+TEST(TrackFile, ReadsVersion1AsFramesWithoutCrossCameraMatches) {
+  // A version-1 file: the version-2 bytes without the cross-camera blocks.
+  const fs::path path = TempFile("version1.bin");
+  const std::vector<MultiCameraFrame> frames = MakeFrames(0, 0);
+  WriteFrames(path, MakeHeader(0, 0), frames);
+  const std::string v2 = ReadFileToString(path);
+  std::string v1 = v2.substr(0, FrameOffset(v2, frames, 0));
+  const size_t version_at = v1.find("\"format_version\":2");
+  ASSERT_NE(version_at, std::string::npos);
+  v1[version_at + 17] = '1';
+  for (size_t f = 0; f < frames.size(); ++f) {
+    const size_t begin = FrameOffset(v2, frames, f);
+    const size_t block = FrameOffset(v2, frames, f + 1) - begin -
+                         (8 + 40 * frames[f].cross_pair_stats.size() + 18 * frames[f].cross_matches.size());
+    v1 += v2.substr(begin, block);
+  }
+  v1 += v2.substr(v2.size() - 8);  // end record
+  WriteFileAtomic(path, v1);
+  TrackFileReader reader(path);
+  EXPECT_EQ(reader.header().format_version, 1);
+  size_t count = 0;
+  while (std::optional<MultiCameraFrame> frame = reader.Next()) {
+    ASSERT_LT(count, frames.size());
+    EXPECT_EQ(frame->cameras[0].features.size(), frames[count].cameras[0].features.size());
+    EXPECT_TRUE(frame->cross_matches.empty());
+    EXPECT_TRUE(frame->cross_pair_stats.empty());
+    ++count;
+  }
+  EXPECT_EQ(count, frames.size());
+
+  // Versions this reader does not know are named.
+  std::string v3 = v2;
+  v3[v2.find("\"format_version\":2") + 17] = '3';
+  WriteFileAtomic(path, v3);
+  const std::string message = ReadAllError(path);
+  EXPECT_NE(message.find("unsupported format_version 3 (this reader: 1 to 2)"), std::string::npos) << message;
+  EXPECT_EQ(message.rfind(path.string() + ": ", 0), 0u) << message;
+}
+
+TEST(TrackFile, CorruptCrossCameraBlockNamesTheByte) {
+  const fs::path path = TempFile("cross.bin");
+  const std::vector<MultiCameraFrame> frames = MakeFrames(0, 0);
+  WriteFrames(path, MakeHeader(0, 0), frames);
+  const std::string bytes = ReadFileToString(path);
+  // Frame 0's cross-camera block: u32 pairs, one pair record, u32 matches, match records.
+  const size_t block = FrameOffset(bytes, frames, 1) - 8 - 40 - 18 * frames[0].cross_matches.size();
+  ASSERT_EQ(static_cast<uint8_t>(bytes[block]), 1);  // one pair
+
+  std::string bad = bytes;
+  bad[block + 4 + 4] = '\x05';  // camera_b = 5 of 2 cameras
+  WriteFileAtomic(path, bad);
+  std::string message = ReadAllError(path);
+  EXPECT_NE(message.find("cross-camera pair 0-5"), std::string::npos) << message;
+  EXPECT_NE(message.find("(at byte " + std::to_string(block + 4) + ")"), std::string::npos) << message;
+
+  bad = bytes;
+  const size_t second_match = block + 4 + 40 + 4 + 18;
+  bad[second_match + 1] = bad[second_match - 18 + 1];  // the same id as the first match: not sorted
+  WriteFileAtomic(path, bad);
+  message = ReadAllError(path);
+  EXPECT_NE(message.find("cross-camera match 1"), std::string::npos) << message;
+  EXPECT_NE(message.find("(at byte " + std::to_string(second_match) + ")"), std::string::npos) << message;
+
+  bad = bytes;
+  bad[block + 4 + 40 + 3] = '\x7f';  // absurd match count
+  WriteFileAtomic(path, bad);
+  message = ReadAllError(path);
+  EXPECT_NE(message.find("announces"), std::string::npos) << message;
+  EXPECT_NE(message.find("cross-camera matches at byte " + std::to_string(block + 44)), std::string::npos)
+      << message;
 }
 
 }  // namespace

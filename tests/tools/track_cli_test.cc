@@ -72,12 +72,18 @@ TEST(TrackCli, TracksASequence) {
   EXPECT_EQ(reader.header().detector, "shi_tomasi");
   EXPECT_EQ(reader.header().descriptor_size, 0);
   EXPECT_NE(reader.header().config_json.find("\"frontend\""), std::string::npos);
+  EXPECT_EQ(reader.header().format_version, 2);
   int frames = 0;
   size_t features = 0;
+  size_t cross_matches = 0;
   std::set<uint64_t> ids;
   while (std::optional<mcvo::MultiCameraFrame> frame = reader.Next()) {
     EXPECT_EQ(frame->frame_index, frames);
     ASSERT_EQ(frame->cameras.size(), 2u);
+    // The stereo pair overlaps: camera 0's features are found in camera 1.
+    ASSERT_EQ(frame->cross_pair_stats.size(), 1u);
+    EXPECT_EQ(frame->cross_pair_stats[0].matches, static_cast<int>(frame->cross_matches.size()));
+    cross_matches += frame->cross_matches.size();
     for (const mcvo::CameraFrameResult& camera : frame->cameras) {
       features += camera.features.size();
       for (const mcvo::TrackedFeature& f : camera.features) {
@@ -90,13 +96,29 @@ TEST(TrackCli, TracksASequence) {
   EXPECT_EQ(frames, 4);
   EXPECT_GT(features, 40u);
   EXPECT_LT(ids.size(), features);  // some features are tracked over frames
+  EXPECT_GT(cross_matches, features / 2 / 4);
 
   const std::string csv = mcvo::ReadFileToString(stats);
   EXPECT_EQ(csv.rfind("frame,t_ns,camera,tracked,new,ransac_inliers,ransac_outliers,mean_track_length,sfd,"
-                      "image_missing\n",
+                      "image_missing,cross_matches\n",
                       0),
             0u);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 4 * 2) << csv;
+  // cross_matches: camera 0's features found in camera 1, summed over the rows.
+  size_t csv_cross_matches = 0;
+  size_t line_start = csv.find('\n') + 1;
+  while (line_start < csv.size()) {
+    const size_t line_end = csv.find('\n', line_start);
+    const std::string line = csv.substr(line_start, line_end - line_start);
+    const size_t last_comma = line.rfind(',');
+    const size_t value = std::stoul(line.substr(last_comma + 1));
+    if (line.find(",image_01,") != std::string::npos) {
+      EXPECT_EQ(value, 0u) << line;
+    }
+    csv_cross_matches += value;
+    line_start = line_end + 1;
+  }
+  EXPECT_EQ(csv_cross_matches, cross_matches);
 }
 
 TEST(TrackCli, IdenticalAtAnyThreadCount) {

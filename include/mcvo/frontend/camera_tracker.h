@@ -62,6 +62,11 @@ class CameraTracker {
   // Gives the id-0 features of `result` (the last Track()) consecutive ids
   // from *next_id on, advancing it, and records them for the next frame.
   void AssignNewIds(uint64_t* next_id, CameraFrameResult* result);
+  // The LK pyramid of the last Track()'s image (after CLAHE), as
+  // cv::buildOpticalFlowPyramid made it (window lk.window_px, lk.pyramid_levels,
+  // with derivatives); empty when that image was missing. Valid until the
+  // next Track(). The cross-camera matcher reuses it.
+  const std::vector<cv::Mat>& Pyramid() const;
   // The detector's descriptor layout (Detector::DescriptorSize / DescriptorType).
   int DescriptorSize() const;
   int DescriptorType() const;

@@ -1,6 +1,6 @@
 // The track file of `mcvo track` (format: docs/track-format.md): every frame's
-// features per camera (id, pixel, score, track length, descriptor), enough for
-// the back end to run without the images.
+// features per camera (id, pixel, score, track length, descriptor) and its
+// cross-camera matches, enough for the back end to run without the images.
 #pragma once
 
 #include <cstdint>
@@ -16,6 +16,9 @@
 namespace mcvo {
 
 struct TrackFileHeader {
+  // Set by the reader from the file (1: written before cross-camera matches
+  // existed, read with none). The writer always writes the current version.
+  int format_version = 2;
   std::vector<std::string> camera_names;
   int descriptor_size = 0;  // per feature; 0: none
   int descriptor_type = 0;  // OpenCV depth of descriptor rows (CV_32F or CV_8U)
@@ -38,7 +41,8 @@ class TrackFileWriter {
 };
 
 // Reads a track file frame by frame. A truncated or corrupt file throws
-// InputError naming the file and the byte offset.
+// InputError naming the file and the byte offset. Reads format versions 1
+// (frames without cross-camera matches or pair statistics) and 2.
 class TrackFileReader {
  public:
   explicit TrackFileReader(const std::filesystem::path& path);
