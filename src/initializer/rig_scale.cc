@@ -16,6 +16,8 @@ namespace mcvo {
 void RigScaleOptions::Check() const {
   CheckInRange("rig_scale.min_singular_value_ratio", min_singular_value_ratio, 0.0, 1.0);
   CheckPositive("rig_scale.max_rms_residual_m", max_rms_residual_m);
+  CheckPositive("rig_scale.max_relative_scale_sigma", max_relative_scale_sigma);
+  CheckPositive("rig_scale.rig_sigma_m", rig_sigma_m);
   CheckAtLeast("rig_scale.max_num_iterations", max_num_iterations, 1);
 }
 
@@ -28,8 +30,9 @@ struct StackedSystem {
   std::vector<std::pair<int, int>> pairs;  // (i, j) of each block
 };
 
-void CheckWindow(const std::vector<CameraWindowTrack>& cameras) {
-  MCVO_CHECK_MSG(cameras.size() >= 2, "rig scale needs at least 2 cameras, got ", cameras.size());
+void CheckWindow(const std::vector<CameraWindowTrack>& cameras, size_t min_cameras = 2) {
+  MCVO_CHECK_MSG(cameras.size() >= min_cameras, "rig scale needs at least ", min_cameras, " camera",
+                 min_cameras == 1 ? "" : "s", ", got ", cameras.size());
   const size_t num_frames = cameras[0].position_up_to_scale.size();
   MCVO_CHECK_MSG(num_frames >= 2, "rig scale needs at least 2 frames, got ", num_frames);
   for (size_t c = 0; c < cameras.size(); ++c) {
@@ -121,11 +124,58 @@ bool CheckObservable(const StackedSystem& sys, const RigScaleOptions& options, R
   return true;
 }
 
-// Final acceptance of a solution: positive scales and a small residual.
-void Accept(const StackedSystem& sys, const Eigen::VectorXd& scales, const RigScaleOptions& options,
-            RigScaleResult* result) {
+// Standard deviations of the scales from the SVD of A D^-1 (A whitened,
+// D = diag(column norms)): cov(s) = D^-1 V Sigma^-2 V^T D^-1, times
+// `variance` (the residual variance when A is not whitened, else 1).
+Eigen::VectorXd ScaleSigmas(const Eigen::JacobiSVD<Eigen::MatrixXd>& svd, const Eigen::VectorXd& column_norms,
+                            double variance) {
+  const Eigen::MatrixXd& v = svd.matrixV();
+  const Eigen::VectorXd& sigma = svd.singularValues();
+  Eigen::VectorXd out(v.rows());
+  for (Eigen::Index i = 0; i < v.rows(); ++i) {
+    double sum = 0.0;
+    for (Eigen::Index k = 0; k < sigma.size(); ++k) {
+      sum += sigma(k) > 0.0 ? (v(i, k) / sigma(k)) * (v(i, k) / sigma(k))
+                            : std::numeric_limits<double>::infinity();
+    }
+    out(i) = std::sqrt(variance * sum) / column_norms(i);
+  }
+  return out;
+}
+
+// Residual variance of the unweighted rig system at `scales`: |r|^2 / (rows - N).
+double RigResidualVariance(const StackedSystem& sys, const Eigen::VectorXd& scales) {
   const Eigen::VectorXd residual = sys.f * scales + sys.theta;
-  result->rms_residual_m = std::sqrt(residual.squaredNorm() / static_cast<double>(residual.size()));
+  const double dof = static_cast<double>(sys.f.rows() - sys.f.cols());
+  return dof > 0.0 ? residual.squaredNorm() / dof : std::numeric_limits<double>::infinity();
+}
+
+// Final acceptance of a solution: positive scales, a small rig residual and a
+// small relative uncertainty.
+void Accept(const StackedSystem& sys, const Eigen::VectorXd& scales, const Eigen::VectorXd& sigmas,
+            const RigScaleOptions& options, RigScaleResult* result) {
+  const Eigen::VectorXd residual = sys.f * scales + sys.theta;
+  result->rms_residual_m =
+      residual.size() > 0 ? std::sqrt(residual.squaredNorm() / static_cast<double>(residual.size())) : 0.0;
+  result->solution.assign(scales.data(), scales.data() + scales.size());
+  result->solution_sigmas.assign(sigmas.data(), sigmas.data() + sigmas.size());
+  // Uncertainty first: a scale that is not positive but also not supported
+  // by the data is a matter of observability, not of inconsistent input.
+  int worst = 0;
+  result->max_relative_scale_sigma = 0.0;
+  for (int c = 0; c < scales.size(); ++c) {
+    const double relative = sigmas(c) / std::abs(scales(c));
+    if (!(relative <= result->max_relative_scale_sigma)) {
+      result->max_relative_scale_sigma = relative;
+      worst = c;
+    }
+  }
+  if (!(result->max_relative_scale_sigma <= options.max_relative_scale_sigma)) {
+    result->reason = StrCat("scale poorly observable: camera ", worst, " scale sigma ",
+                            FormatFixed(100.0 * result->max_relative_scale_sigma, 2), " % > ",
+                            FormatFixed(100.0 * options.max_relative_scale_sigma, 2), " %");
+    return;
+  }
   for (int c = 0; c < scales.size(); ++c) {
     if (!(scales(c) > 0.0)) {
       result->reason = StrCat("camera ", c, ": scale is not positive (", FormatDouble(scales(c)), ")");
@@ -140,6 +190,7 @@ void Accept(const StackedSystem& sys, const Eigen::VectorXd& scales, const RigSc
   result->observable = true;
   result->reason.clear();
   result->scales.assign(scales.data(), scales.data() + scales.size());
+  result->scale_sigmas.assign(sigmas.data(), sigmas.data() + sigmas.size());
 }
 
 // One block of Eq. (eq:residual) with s = exp(u): e = exp(u_i) q_i - exp(u_j) q_j + theta.
@@ -182,8 +233,10 @@ RigScaleResult SolveRigScalesLinear(const std::vector<CameraWindowTrack>& camera
   Eigen::JacobiSVD<Eigen::MatrixXd> svd;
   if (!PrepareSolve(cameras, options, &result, &sys, &column_norms, &svd)) return result;
   // F D^-1 (D s) = -theta, D = diag(column norms).
-  const Eigen::VectorXd normalised_scales = svd.solve(-sys.theta);
-  Accept(sys, normalised_scales.cwiseQuotient(column_norms), options, &result);
+  const Eigen::VectorXd scales = svd.solve(-sys.theta).cwiseQuotient(column_norms);
+  const double variance = RigResidualVariance(sys, scales);
+  result.rig_sigma_m = std::sqrt(variance);
+  Accept(sys, scales, ScaleSigmas(svd, column_norms, variance), options, &result);
   return result;
 }
 
@@ -237,7 +290,119 @@ RigScaleResult SolveRigScalesCeres(const std::vector<CameraWindowTrack>& cameras
   }
   Eigen::VectorXd scales(n);
   for (int c = 0; c < n; ++c) scales(c) = std::exp(log_scales[c]);
-  Accept(sys, scales, options, &result);
+  const double variance = RigResidualVariance(sys, scales);
+  result.rig_sigma_m = std::sqrt(variance);
+  Accept(sys, scales, ScaleSigmas(svd, column_norms, variance), options, &result);
+  return result;
+}
+
+RigScaleResult SolveRigScalesCombined(const std::vector<CameraWindowTrack>& cameras,
+                                      const std::vector<ScaleMeasurement>& measurements,
+                                      const RigScaleOptions& options) {
+  options.Check();
+  CheckWindow(cameras, 1);
+  const int n = static_cast<int>(cameras.size());
+  for (size_t k = 0; k < measurements.size(); ++k) {
+    const ScaleMeasurement& m = measurements[k];
+    MCVO_CHECK_MSG(m.camera >= 0 && m.camera < n, "measurement ", k, " names camera ", m.camera, " of ", n);
+    MCVO_CHECK_MSG(m.relative_sigma > 0.0 && std::isfinite(m.relative_sigma), "measurement ", k,
+                   ": relative_sigma must be > 0, got ", m.relative_sigma);
+  }
+  RigScaleResult result;
+  result.num_measurements = static_cast<int>(measurements.size());
+  result.reason = NonFiniteReason(cameras);
+  if (!result.reason.empty()) return result;
+  for (size_t k = 0; k < measurements.size(); ++k) {
+    const ScaleMeasurement& m = measurements[k];
+    if (!(m.sfm_length > 0.0 && std::isfinite(m.sfm_length) && m.metric_length > 0.0 &&
+          std::isfinite(m.metric_length))) {
+      result.reason =
+          StrCat("scale measurement ", k, " (camera ", m.camera, "): lengths must be positive and finite");
+      return result;
+    }
+  }
+  const StackedSystem sys = Stack(cameras);
+  result.num_residual_blocks = static_cast<int>(sys.f.rows() / 3);
+  const Eigen::Index rig_rows = sys.f.rows();
+  const Eigen::Index num_meas = static_cast<Eigen::Index>(measurements.size());
+  // Measurement rows before weighting: C s = 1, with their a-priori sigmas.
+  Eigen::MatrixXd c = Eigen::MatrixXd::Zero(num_meas, n);
+  Eigen::VectorXd relative_sigma(num_meas);
+  for (Eigen::Index k = 0; k < num_meas; ++k) {
+    const ScaleMeasurement& m = measurements[static_cast<size_t>(k)];
+    c(k, m.camera) = m.sfm_length / m.metric_length;
+    relative_sigma(k) = m.relative_sigma;
+  }
+  const Eigen::Index rows = rig_rows + num_meas;
+  if (rows < n) {
+    result.reason = StrCat(rows, " equations for ", n, " scales: scale not observable");
+    return result;
+  }
+
+  // Variance component estimation: solve, re-estimate each row set's sigma
+  // from its residual and redundancy, solve again; kRounds re-weightings.
+  constexpr int kRounds = 8;
+  constexpr double kMinSigma = 1e-12;
+  double sigma_rig = options.rig_sigma_m;
+  double factor = 1.0;
+  Eigen::VectorXd scales;
+  Eigen::VectorXd column_norms;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd;
+  for (int round = 0;; ++round) {
+    Eigen::MatrixXd a(rows, n);
+    Eigen::VectorXd b(rows);
+    a.topRows(rig_rows) = sys.f / sigma_rig;
+    b.head(rig_rows) = -sys.theta / sigma_rig;
+    for (Eigen::Index k = 0; k < num_meas; ++k) {
+      const double w = 1.0 / (factor * relative_sigma(k));
+      a.row(rig_rows + k) = c.row(k) * w;
+      b(rig_rows + k) = w;
+    }
+    column_norms = a.colwise().norm().transpose();
+    for (int col = 0; col < n; ++col) {
+      if (!(column_norms(col) > std::numeric_limits<double>::min())) {
+        result.reason = StrCat("camera ", col,
+                               " does not move in the window and has no scale measurement: its scale is not "
+                               "observable");
+        return result;
+      }
+    }
+    svd.compute(a * column_norms.cwiseInverse().asDiagonal(), Eigen::ComputeThinU | Eigen::ComputeThinV);
+    scales = svd.solve(b).cwiseQuotient(column_norms);
+    if (round == kRounds) break;
+    // Redundancy of each row set: its rows minus its share of the hat matrix's
+    // trace (diagonal of U U^T; invariant to the column scaling).
+    const Eigen::MatrixXd& u = svd.matrixU();
+    const double hat_rig = rig_rows > 0 ? u.topRows(rig_rows).squaredNorm() : 0.0;
+    const double hat_meas = num_meas > 0 ? u.bottomRows(num_meas).squaredNorm() : 0.0;
+    const double redundancy_rig = static_cast<double>(rig_rows) - hat_rig;
+    const double redundancy_meas = static_cast<double>(num_meas) - hat_meas;
+    if (rig_rows > 0 && redundancy_rig > 0.5) {
+      const Eigen::VectorXd r = sys.f * scales + sys.theta;
+      sigma_rig = std::max(std::sqrt(r.squaredNorm() / redundancy_rig), kMinSigma);
+    }
+    if (options.estimate_measurement_sigma && num_meas > 0 && redundancy_meas > 0.5) {
+      const Eigen::VectorXd r = (c * scales - Eigen::VectorXd::Ones(num_meas)).cwiseQuotient(relative_sigma);
+      factor = std::max(std::sqrt(r.squaredNorm() / redundancy_meas), kMinSigma);
+    }
+  }
+  result.rig_sigma_m = rig_rows > 0 ? sigma_rig : 0.0;
+  result.measurement_sigma_factor = num_meas > 0 ? factor : 0.0;
+
+  const Eigen::VectorXd& sigma = svd.singularValues();
+  result.singular_value_ratio = sigma(sigma.size() - 1) / sigma(0);
+  result.condition_number = sigma(sigma.size() - 1) > 0.0 ? sigma(0) / sigma(sigma.size() - 1)
+                                                          : std::numeric_limits<double>::infinity();
+  if (!(result.singular_value_ratio >= options.min_singular_value_ratio)) {
+    result.reason =
+        StrCat(num_meas > 0 ? "rig rotation and scale measurements together do not fix every scale"
+                            : "rig motion is near pure translation (or rotates only about the lever "
+                              "differences)",
+               ": scale not observable (sigma_min/sigma_max = ", FormatDouble(result.singular_value_ratio),
+               " < ", FormatDouble(options.min_singular_value_ratio), ")");
+    return result;
+  }
+  Accept(sys, scales, ScaleSigmas(svd, column_norms, 1.0), options, &result);
   return result;
 }
 

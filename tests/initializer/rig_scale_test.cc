@@ -269,6 +269,137 @@ TEST(RigScale, BadOptionsThrowNamingTheField) {
   }
 }
 
+// ---------------------------------------------------------------------------
+// Uncertainty and the combined solve with direct scale measurements.
+
+// A measurement of camera c's scale: a length of `metres` in the world, seen
+// by the SfM as metres / s_c, with a relative error `relative_error`.
+ScaleMeasurement Measure(int camera, double metres, const std::vector<double>& truth, double relative_error,
+                         double relative_sigma) {
+  ScaleMeasurement m;
+  m.camera = camera;
+  m.sfm_length = metres / truth[static_cast<size_t>(camera)];
+  m.metric_length = metres * (1.0 + relative_error);
+  m.relative_sigma = relative_sigma;
+  return m;
+}
+
+TEST(RigScale, SigmasCoverTheErrors) {
+  std::mt19937 rng(21);
+  const Noise noise{0.002, 0.02 * kDeg};
+  double worst_z = 0.0;
+  for (int trial = 0; trial < 10; ++trial) {
+    const auto window = MakeWindow(Irregular5RigFromCam(), Trajectory(10, (25.0 + trial) * kDeg),
+                                   kTrueScales5, 0, noise, &rng);
+    const RigScaleResult linear = SolveRigScalesLinear(window);
+    ASSERT_TRUE(linear.observable) << linear.reason;
+    ASSERT_EQ(linear.scale_sigmas.size(), 5u);
+    EXPECT_GT(linear.rig_sigma_m, 0.0005);
+    EXPECT_LT(linear.rig_sigma_m, 0.01);
+    for (size_t c = 0; c < 5; ++c) {
+      worst_z = std::max(worst_z, std::abs(linear.scales[c] - kTrueScales5[c]) / linear.scale_sigmas[c]);
+    }
+  }
+  // Independent noise: the sigmas are right, 50 scales stay within 4 sigma.
+  std::printf("5-cam, 10 windows: worst |error| / sigma %.2f\n", worst_z);
+  EXPECT_LT(worst_z, 4.0);
+}
+
+TEST(RigScale, PoorlyObservableScaleIsRefused) {
+  std::mt19937 rng(4);
+  // 2 deg of yaw over the window: observable by the singular value test, not precise.
+  const auto window = MakeWindow(Kitti3CamRigFromCam(), Trajectory(10, 2.0 * kDeg), kTrueScales3, 0,
+                                 Noise{0.002, 0.02 * kDeg}, &rng);
+  RigScaleOptions options;
+  options.min_singular_value_ratio = 1e-6;
+  options.max_relative_scale_sigma = 0.005;  // the initializer's bound
+  const RigScaleResult result = SolveRigScalesLinear(window, options);
+  EXPECT_FALSE(result.observable);
+  EXPECT_TRUE(result.scales.empty());
+  EXPECT_NE(result.reason.find("scale poorly observable"), std::string::npos) << result.reason;
+  EXPECT_GT(result.max_relative_scale_sigma, options.max_relative_scale_sigma);
+  std::printf("2 deg of yaw: %s\n", result.reason.c_str());
+}
+
+TEST(RigScale, CombinedWithoutMeasurementsIsTheLinearSolve) {
+  std::mt19937 rng(8);
+  const auto window = MakeWindow(Kitti3CamRigFromCam(), Trajectory(10, 30.0 * kDeg), kTrueScales3, 2,
+                                 Noise{0.001, 0.01 * kDeg}, &rng);
+  const RigScaleResult linear = SolveRigScalesLinear(window);
+  const RigScaleResult combined = SolveRigScalesCombined(window, {});
+  ASSERT_TRUE(linear.observable) << linear.reason;
+  ASSERT_TRUE(combined.observable) << combined.reason;
+  for (size_t c = 0; c < 3; ++c) {
+    EXPECT_NEAR(combined.scales[c] / linear.scales[c], 1.0, 1e-9);
+    EXPECT_NEAR(combined.scale_sigmas[c] / linear.scale_sigmas[c], 1.0, 1e-6);
+  }
+  EXPECT_NEAR(combined.singular_value_ratio, linear.singular_value_ratio, 1e-9);
+  EXPECT_NEAR(combined.rig_sigma_m / linear.rig_sigma_m, 1.0, 1e-6);
+  EXPECT_EQ(combined.num_measurements, 0);
+}
+
+// Pure translation: the rig rows give only the ratios of the scales; a
+// measurement of one camera's scale fixes all three.
+TEST(RigScale, MeasurementsFixThePureTranslationScale) {
+  std::mt19937 rng(3);
+  for (const double noise : {0.0, 0.001}) {
+    const auto window = MakeWindow(Kitti3CamRigFromCam(), Trajectory(10, 0.0), kTrueScales3, 0,
+                                   Noise{noise, noise > 0 ? 0.01 * kDeg : 0.0}, &rng);
+    EXPECT_FALSE(SolveRigScalesLinear(window).observable);
+    std::vector<ScaleMeasurement> measurements;
+    for (int k = 0; k < 40; ++k) {
+      const double error = noise > 0 ? 0.02 * std::sin(1.7 * k) : 0.0;  // +-2 %, zero mean
+      measurements.push_back(Measure(0, 5.0 + k, kTrueScales3, error, 0.02));
+    }
+    const RigScaleResult result = SolveRigScalesCombined(window, measurements);
+    ASSERT_TRUE(result.observable) << result.reason;
+    EXPECT_EQ(result.num_measurements, 40);
+    std::printf(
+        "pure translation + 40 measurements of camera 0, noise %.3f: worst scale error %.3f %%, "
+        "sigma ratio %.3g, measurement sigma factor %.3g\n",
+        noise, 100.0 * MaxRelativeError(result.scales, kTrueScales3), result.singular_value_ratio,
+        result.measurement_sigma_factor);
+    EXPECT_LT(MaxRelativeError(result.scales, kTrueScales3), noise > 0 ? 0.01 : 1e-9);
+  }
+}
+
+// One camera and measurements only (a monocular window with a known length).
+TEST(RigScale, OneCameraWithMeasurements) {
+  std::mt19937 rng(3);
+  auto window = MakeWindow(Kitti3CamRigFromCam(), Trajectory(10, 0.0), kTrueScales3, 0, Noise(), &rng);
+  window.resize(1);
+  const RigScaleResult alone = SolveRigScalesCombined(window, {});
+  EXPECT_FALSE(alone.observable);
+  EXPECT_NE(alone.reason.find("not observable"), std::string::npos) << alone.reason;
+  const RigScaleResult measured = SolveRigScalesCombined(
+      window, {Measure(0, 7.0, kTrueScales3, 0.0, 0.01), Measure(0, 9.0, kTrueScales3, 0.0, 0.01)});
+  ASSERT_TRUE(measured.observable) << measured.reason;
+  EXPECT_NEAR(measured.scales[0], kTrueScales3[0], 1e-9);
+}
+
+TEST(RigScale, BadMeasurementsAreExpectedFailures) {
+  std::mt19937 rng(2);
+  const auto window =
+      MakeWindow(Kitti3CamRigFromCam(), Trajectory(10, 30.0 * kDeg), kTrueScales3, 0, Noise(), &rng);
+  ScaleMeasurement bad = Measure(1, 5.0, kTrueScales3, 0.0, 0.01);
+  bad.metric_length = std::numeric_limits<double>::quiet_NaN();
+  const RigScaleResult result = SolveRigScalesCombined(window, {bad});
+  EXPECT_FALSE(result.observable);
+  EXPECT_NE(result.reason.find("measurement 0 (camera 1)"), std::string::npos) << result.reason;
+}
+
+TEST(RigScaleDeathTest, MalformedMeasurementAborts) {
+  std::mt19937 rng(2);
+  const auto window =
+      MakeWindow(Kitti3CamRigFromCam(), Trajectory(10, 30.0 * kDeg), kTrueScales3, 0, Noise(), &rng);
+  EXPECT_DEATH(SolveRigScalesCombined(
+                   window, {Measure(0, 5.0, kTrueScales3, 0.0, 0.01), ScaleMeasurement{3, 1, 1, 0.1}}),
+               "measurement 1 names camera 3 of 3");
+  EXPECT_DEATH(SolveRigScalesCombined(window, {ScaleMeasurement{0, 1, 1, 0.0}}),
+               "relative_sigma must be > 0");
+  EXPECT_DEATH(SolveRigScalesCombined({}, {}), "at least 1 camera");
+}
+
 // A malformed window is a programmer error (the initializer assembles it): MCVO_CHECK.
 TEST(RigScaleDeathTest, MalformedWindowAborts) {
   std::mt19937 rng(2);

@@ -1,0 +1,162 @@
+// Metric initialisation of a rigid multi-camera rig from a window of frames
+// (paper Sec. "Multi-Camera Initialization"; reference notes
+// "Initialisation (as released)", with the differences listed there fixed):
+//
+//  1. Trigger. Frames are collected into a window of options.window_size.
+//     Once full, for each candidate anchor frame l (oldest first) and each
+//     camera: the features it shares with the newest frame r and their mean
+//     parallax (angle between the two bearings, not derotated, in pixels at
+//     options.virtual_focal_px). A camera passes with at least
+//     min_correspondences and min_parallax_px (a camera without image at l
+//     or r does not pass). l is the first frame where every required camera
+//     passes (required_cameras; empty = all cameras of the rig) and at least
+//     min_cameras_passing cameras pass. With the default (all required),
+//     min_cameras_passing only matters for an explicit list.
+//  2. Per passing camera, monocular SfM over the window l..r (camera_sfm.h),
+//     cameras in parallel (std::thread workers writing into per-camera
+//     slots), each anchored to the rig at l through its extrinsic, so only
+//     one scale per camera is unknown. A required camera whose SfM fails, or
+//     fewer than min_cameras_passing successful ones, make the window wait.
+//  3. Principal camera: among the cameras used, the one with the most
+//     features tracked through every frame l..r (the most stable tracking;
+//     ties: lower index). Its SfM gives the initial rig poses.
+//  4. Scale, from two sources combined in one weighted linear least squares
+//     (rig_scale.h SolveRigScalesCombined):
+//     - the rigid-rig constraint over frames and camera pairs, observable
+//       only when the rig rotates;
+//     - cross-camera observations (overlapping views, RigFrameObservations::
+//       cross_camera): a feature of camera a seen by camera b in the same
+//       frame is triangulated with the known metric baseline; the ratio of
+//       a's SfM distance to that metric distance (near zero-mean noise: it
+//       is proportional to the triangulation angle) is averaged per camera,
+//       weighted by the angle the SfM point predicts, after a robust filter
+//       (3.5 robust stds), into one direct measurement of 1 / s_a, also
+//       under pure translation. A camera needs min_cross_camera_matches.
+//     Rejected unless the combined system passes the observability test
+//     (min_singular_value_ratio), the rig residual is at most
+//     max_rms_residual_m and the best determined camera's scale has an
+//     estimated relative std of at most 3 x max_relative_scale_sigma (a
+//     screen; step 5 applies the bound itself). A camera whose scale is not
+//     positive or more than 10 % uncertain is left out (camera_used false)
+//     and the solve repeated.
+//  5. Rig window bundle adjustment (rig_window_ba.h), unless
+//     max_rig_ba_iterations = 0: all used cameras' observations and the
+//     cross-camera observations, through the extrinsics, refine the metric
+//     rig poses and landmarks together, and give the uncertainty of the
+//     scale (marginal relative std of the distance travelled); rejected when
+//     it exceeds max_relative_scale_sigma.
+//  A rejected window waits: the next frame slides it by one and the reason
+//  is kept (WaitingReason). So under pure translation without overlapping
+//  views the initializer waits, however long, instead of returning a scale
+//  the data do not hold.
+//  6. Result: metric rig poses of the window frames l..r, metric landmarks.
+//
+// World frame of the result: the rig frame at the anchor frame l.
+// Deterministic at any thread count.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mcvo/camera/camera.h"
+#include "mcvo/geometry/rigid3d.h"
+#include "mcvo/initializer/camera_sfm.h"
+#include "mcvo/initializer/observations.h"
+#include "mcvo/initializer/rig_scale.h"
+
+namespace mcvo {
+
+struct InitializerOptions {
+  int window_size = 10;
+  int min_correspondences = 20;   // with the newest frame, per camera
+  double min_parallax_px = 30.0;  // mean, at virtual_focal_px
+  double virtual_focal_px = 460.0;
+  int min_cameras_passing = 2;                // with a required_cameras list: the fewest that may pass
+  std::vector<std::string> required_cameras;  // empty: all cameras ("all" in JSON)
+  // Cross-camera scale: matches a camera needs in the window (after the
+  // robust filter), and the smallest triangulation angle of a usable match
+  // (the angle its SfM point predicts).
+  int min_cross_camera_matches = 20;
+  double min_cross_camera_angle_deg = 0.5;
+  double min_singular_value_ratio = 1e-3;  // rig_scale.h observability threshold
+  // Largest rms of the rig-constraint residual (a screen for inconsistent
+  // input, e.g. a wrong extrinsic; SfM noise alone reaches 0.1-0.2 m at 2 px
+  // on fisheyes with 250 px/rad).
+  double max_rms_residual_m = 0.25;
+  // Largest accepted estimated relative std of the metric scale: of each
+  // camera's scale in the linear solve (rig_scale.h "Uncertainty") and of the
+  // distance travelled after the rig window BA (rig_window_ba.h).
+  double max_relative_scale_sigma = 0.005;
+  // Rig window bundle adjustment after the scale solve (rig_window_ba.h); 0: off.
+  int max_rig_ba_iterations = 50;
+  CameraSfmOptions sfm;
+
+  // Throws InputError naming the field by its config path ("/initializer/...").
+  void Check() const;
+};
+
+// How the scale was determined: from the rig rotation alone (no usable
+// cross-camera observations), from cross-camera observations (the rig
+// rotation alone would not have passed the tests), or from both (each alone
+// would have).
+enum class ScaleSource { kRigRotation, kCrossCamera, kCombined };
+
+struct InitializationResult {
+  // Window frames l..r (r = newest), metric, world = rig at l.
+  std::vector<int> frame_index;  // RigFrameObservations::frame_index of each
+  std::vector<int64_t> t_ns;
+  std::vector<Rigid3d> world_from_rig;
+  struct Landmark {
+    uint64_t id = 0;
+    int camera = 0;  // the camera whose feature it is
+    Eigen::Vector3d point_in_world = Eigen::Vector3d::Zero();
+  };
+  std::vector<Landmark> landmarks;  // sorted by id
+  int anchor_frame_index = 0;       // frame_index of l
+  int principal_camera = 0;
+  std::vector<bool> camera_used;      // per rig camera: passed and its SfM succeeded
+  std::vector<double> camera_scales;  // metric scale per camera's SfM, of step 4 (0 when unused)
+  ScaleSource source = ScaleSource::kRigRotation;
+  RigScaleResult rig_scale;  // of the combined solve: residual, singular value ratio
+  // Estimated relative std of the metric scale of the result (the rig BA's;
+  // the linear solve's largest when the BA is off).
+  double relative_scale_sigma = 0.0;
+  int cross_camera_matches = 0;            // cross-camera observations in the scale measurements
+  double cross_camera_scale_spread = 0.0;  // robust std (1.4826 MAD) of their relative scale ratios
+  // Earlier windows that passed the trigger but were rejected (SfM, scale or
+  // its uncertainty) since the last Reset().
+  int attempts = 0;
+};
+
+class Initializer {
+ public:
+  // threads: workers for the per-camera SfM (results identical at any count).
+  // MCVO_CHECKs options.Check() has passed and every required camera exists.
+  Initializer(const Rig& rig, const InitializerOptions& options, int threads);
+  ~Initializer();
+  Initializer(const Initializer&) = delete;
+  Initializer& operator=(const Initializer&) = delete;
+
+  // Adds the next frame (frame_index increasing). Returns the result when the
+  // window initialises; afterwards the initializer is spent (call Reset()).
+  std::optional<InitializationResult> AddFrame(const RigFrameObservations& frame);
+  // Why the last AddFrame did not initialise, one line: "window 4/10",
+  // "image_02: 12 correspondences < 20 (best anchor frame ...)",
+  // "image_00: SfM failed: ...", "rig motion is near pure translation ...:
+  // scale not observable (...)", "scale poorly observable: ...";
+  // "initialised" after a result.
+  const std::string& WaitingReason() const;
+  // Empties the window (after tracking loss, to initialise again).
+  void Reset();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mcvo

@@ -1,0 +1,668 @@
+// Metric initialisation of the rig (see initializer.h for the steps).
+#include "mcvo/initializer/initializer.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <deque>
+#include <limits>
+#include <map>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "bearing_residual.h"
+#include "mcvo/initializer/rig_window_ba.h"
+#include "mcvo/util/error.h"
+#include "mcvo/util/strings.h"
+
+namespace mcvo {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+using initializer_internal::AngleBetween;
+
+bool Missing(const RigFrameObservations& frame, int camera) {
+  return static_cast<size_t>(camera) < frame.camera_missing.size() &&
+         frame.camera_missing[static_cast<size_t>(camera)];
+}
+
+// Trigger statistics of one camera between an anchor candidate and the newest frame.
+struct CameraParallax {
+  int correspondences = 0;
+  double parallax_px = 0.0;  // mean angle between the two bearings, pixels at the virtual focal
+  bool missing = false;
+  bool passes = false;
+};
+
+std::map<uint64_t, Eigen::Vector3d> BearingsById(const std::vector<FeatureObservation>& features) {
+  std::map<uint64_t, Eigen::Vector3d> out;
+  for (const FeatureObservation& f : features) out.emplace(f.id, f.bearing);
+  return out;
+}
+
+// Robust std of values centred on zero: 1.4826 x the median of their absolute values.
+double RobustSpread(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  for (double& v : values) v = std::abs(v);
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return 1.4826 * *mid;
+}
+
+double Median(std::vector<double> values) {
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
+// "camera 3" in a rig-scale reason -> the name of the rig camera behind solve index 3.
+std::string NameCameras(std::string text, const std::vector<int>& solve_to_rig, const Rig& rig) {
+  for (int k = static_cast<int>(solve_to_rig.size()) - 1; k >= 0; --k) {
+    const std::string from = StrCat("camera ", k);
+    const std::string to =
+        StrCat("camera ", rig.cameras[static_cast<size_t>(solve_to_rig[static_cast<size_t>(k)])].name);
+    size_t pos = text.find(from);
+    while (pos != std::string::npos) {
+      const size_t end = pos + from.size();
+      if (end < text.size() &&
+          std::isdigit(static_cast<unsigned char>(text[end]))) {  // "camera 12" for k = 1
+        pos = text.find(from, end);
+        continue;
+      }
+      text.replace(pos, from.size(), to);
+      pos = text.find(from, pos + to.size());
+    }
+  }
+  return text;
+}
+
+}  // namespace
+
+struct Initializer::Impl {
+  Impl(const Rig& rig_in, const InitializerOptions& options_in, int threads_in)
+      : rig(rig_in), options(options_in), threads(threads_in), required(rig_in.cameras.size(), false) {
+    try {
+      options.Check();
+    } catch (const InputError& e) {
+      MCVO_CHECK_MSG(false, "initializer options were not checked: ", e.what());
+    }
+    MCVO_CHECK_MSG(threads >= 1, "threads must be >= 1, got ", threads);
+    MCVO_CHECK_MSG(rig.NumCameras() >= 1, "rig has no camera");
+    if (options.required_cameras.empty()) {
+      required.assign(required.size(), true);
+    } else {
+      for (const std::string& name : options.required_cameras) {
+        const int c = rig.FindCamera(name);
+        MCVO_CHECK_MSG(c >= 0, "required camera \"", name, "\" is not in the rig");
+        required[static_cast<size_t>(c)] = true;
+      }
+    }
+    Reset();
+  }
+
+  void Reset() {
+    window.clear();
+    reason = StrCat("window 0/", options.window_size);
+    spent = false;
+    attempts = 0;
+  }
+
+  int NumCameras() const { return rig.NumCameras(); }
+
+  std::optional<InitializationResult> AddFrame(const RigFrameObservations& frame) {
+    MCVO_CHECK_MSG(static_cast<int>(frame.cameras.size()) == NumCameras(), "frame ", frame.frame_index,
+                   " has ", frame.cameras.size(), " camera lists, the rig has ", NumCameras(), " cameras");
+    MCVO_CHECK_MSG(
+        frame.camera_missing.empty() || static_cast<int>(frame.camera_missing.size()) == NumCameras(),
+        "frame ", frame.frame_index, ": camera_missing has ", frame.camera_missing.size(), " entries");
+    if (spent) {
+      reason = "already initialised (call Reset() to initialise again)";
+      return std::nullopt;
+    }
+    MCVO_CHECK_MSG(window.empty() || frame.frame_index > window.back().frame_index, "frame index ",
+                   frame.frame_index, " does not increase (previous ", window.back().frame_index, ")");
+    window.push_back(frame);
+    while (static_cast<int>(window.size()) > options.window_size) window.pop_front();
+    if (static_cast<int>(window.size()) < options.window_size) {
+      reason = StrCat("window ", window.size(), "/", options.window_size);
+      return std::nullopt;
+    }
+    int anchor = -1;
+    std::vector<bool> passing;
+    if (!Trigger(&anchor, &passing)) return std::nullopt;
+    std::optional<InitializationResult> result = Initialise(anchor, passing);
+    if (!result) {
+      ++attempts;
+      return std::nullopt;
+    }
+    spent = true;
+    reason = "initialised";
+    return result;
+  }
+
+  // Step 1: the anchor frame l (window position) and the cameras that pass there.
+  bool Trigger(int* anchor, std::vector<bool>* passing) {
+    const int newest = static_cast<int>(window.size()) - 1;
+    std::vector<std::map<uint64_t, Eigen::Vector3d>> newest_bearings(static_cast<size_t>(NumCameras()));
+    for (int c = 0; c < NumCameras(); ++c) {
+      newest_bearings[static_cast<size_t>(c)] =
+          BearingsById(window[static_cast<size_t>(newest)].cameras[static_cast<size_t>(c)]);
+    }
+    int best_l = -1, best_count = -1;
+    std::vector<CameraParallax> best_stats;
+    for (int l = 0; l < newest; ++l) {
+      std::vector<CameraParallax> stats(static_cast<size_t>(NumCameras()));
+      int count = 0;
+      bool required_pass = true;
+      for (int c = 0; c < NumCameras(); ++c) {
+        CameraParallax& s = stats[static_cast<size_t>(c)];
+        s.missing =
+            Missing(window[static_cast<size_t>(l)], c) || Missing(window[static_cast<size_t>(newest)], c);
+        if (!s.missing) {
+          const auto& newest_c = newest_bearings[static_cast<size_t>(c)];
+          double sum = 0.0;
+          for (const FeatureObservation& f : window[static_cast<size_t>(l)].cameras[static_cast<size_t>(c)]) {
+            const auto it = newest_c.find(f.id);
+            if (it == newest_c.end()) continue;
+            ++s.correspondences;
+            sum += AngleBetween(f.bearing, it->second);
+          }
+          s.parallax_px = s.correspondences > 0 ? options.virtual_focal_px * sum / s.correspondences : 0.0;
+          s.passes =
+              s.correspondences >= options.min_correspondences && s.parallax_px >= options.min_parallax_px;
+        }
+        count += s.passes ? 1 : 0;
+        if (required[static_cast<size_t>(c)] && !s.passes) required_pass = false;
+      }
+      if (required_pass && count >= options.min_cameras_passing) {
+        *anchor = l;
+        passing->resize(stats.size());
+        for (size_t c = 0; c < stats.size(); ++c) (*passing)[c] = stats[c].passes;
+        return true;
+      }
+      if (count > best_count) {
+        best_count = count;
+        best_l = l;
+        best_stats = stats;
+      }
+    }
+    // Why not: the first failing (required, then any) camera of the best candidate.
+    int failing = -1;
+    for (int pass = 0; pass < 2 && failing < 0; ++pass) {
+      for (int c = 0; c < NumCameras(); ++c) {
+        if (!best_stats[static_cast<size_t>(c)].passes && (pass == 1 || required[static_cast<size_t>(c)])) {
+          failing = c;
+          break;
+        }
+      }
+    }
+    const std::string where =
+        StrCat(" (best anchor frame ", window[static_cast<size_t>(best_l)].frame_index, ": ", best_count, "/",
+               NumCameras(), " cameras pass, ", options.min_cameras_passing, " needed)");
+    if (failing < 0) {
+      reason = StrCat("too few cameras pass", where);
+      return false;
+    }
+    const CameraParallax& s = best_stats[static_cast<size_t>(failing)];
+    const std::string& name = rig.cameras[static_cast<size_t>(failing)].name;
+    if (s.missing) {
+      reason = StrCat(name, ": no image", where);
+    } else if (s.correspondences < options.min_correspondences) {
+      reason =
+          StrCat(name, ": ", s.correspondences, " correspondences < ", options.min_correspondences, where);
+    } else {
+      reason = StrCat(name, ": parallax ", FormatFixed(s.parallax_px, 1), " px < ",
+                      FormatDouble(options.min_parallax_px), " px", where);
+    }
+    return false;
+  }
+
+  // Step 2: per-camera SfM over window positions l..newest, cameras in
+  // parallel; slot k belongs to cameras[k], so the results do not depend on
+  // the number of workers.
+  std::vector<CameraSfmResult> RunSfm(int anchor, const std::vector<int>& cameras) const {
+    const int newest = static_cast<int>(window.size()) - 1;
+    const int num_frames = newest - anchor + 1;
+    std::vector<CameraSfmResult> results(cameras.size());
+    auto solve = [&](size_t k) {
+      std::vector<WindowObservation> observations;
+      for (int t = anchor; t <= newest; ++t) {
+        for (const FeatureObservation& f :
+             window[static_cast<size_t>(t)].cameras[static_cast<size_t>(cameras[k])]) {
+          WindowObservation o;
+          o.frame = t - anchor;
+          o.id = f.id;
+          o.bearing = f.bearing;
+          observations.push_back(o);
+        }
+      }
+      results[k] = SolveCameraWindowSfm(num_frames, 0, num_frames - 1, observations, options.sfm);
+    };
+    const size_t workers = std::min(static_cast<size_t>(threads), cameras.size());
+    if (workers <= 1) {
+      for (size_t k = 0; k < cameras.size(); ++k) solve(k);
+    } else {
+      std::vector<std::thread> pool;
+      for (size_t w = 0; w < workers; ++w) {
+        pool.emplace_back([&, w] {
+          for (size_t k = w; k < cameras.size(); k += workers) solve(k);
+        });
+      }
+      for (std::thread& t : pool) t.join();
+    }
+    return results;
+  }
+
+  // Step 4, cross-camera part: one scale measurement per usable cross-camera
+  // observation of a feature that camera a's SfM triangulated. The metric
+  // distance of the point from camera a comes from midpoint triangulation
+  // with camera b through the extrinsics; its SfM distance from a's SfM.
+  // Weights and the minimum angle use the angle the SfM point predicts
+  // (scaled by the median ratio of the camera), not the measured one: noise
+  // that widens a measured angle also shortens the measured distance, so
+  // weighting by it would bias the scale low.
+  std::vector<ScaleMeasurement> CrossCameraMeasurements(int anchor, const std::vector<int>& used,
+                                                        const std::vector<CameraSfmResult>& sfm_of_used,
+                                                        int* num_matches, double* spread) const {
+    std::vector<int> solve_index(static_cast<size_t>(NumCameras()), -1);
+    for (size_t k = 0; k < used.size(); ++k) solve_index[static_cast<size_t>(used[k])] = static_cast<int>(k);
+    const double sigma_angle = 1.0 / options.virtual_focal_px;  // a-priori: 1 px; rescaled by the solve
+    const double min_angle = options.min_cross_camera_angle_deg / kRadToDeg;
+    struct Match {
+      double ratio;              // metric / SfM distance
+      Eigen::Vector3d p_sfm;     // SfM point in camera a at the frame
+      Eigen::Vector3d centre_b;  // camera b's centre in camera a, metres
+      double metric_length;
+    };
+    std::vector<std::vector<Match>> per_camera(used.size());
+    const int newest = static_cast<int>(window.size()) - 1;
+    for (int t = anchor; t <= newest; ++t) {
+      const RigFrameObservations& frame = window[static_cast<size_t>(t)];
+      std::map<int, std::map<uint64_t, Eigen::Vector3d>> own;  // camera a -> id -> bearing, built on demand
+      for (const CrossCameraObservation& x : frame.cross_camera) {
+        if (x.camera_a < 0 || x.camera_a >= NumCameras() || x.camera_b < 0 || x.camera_b >= NumCameras() ||
+            x.camera_a == x.camera_b) {
+          continue;
+        }
+        const int k = solve_index[static_cast<size_t>(x.camera_a)];
+        if (k < 0) continue;
+        const CameraSfmResult& sfm = sfm_of_used[static_cast<size_t>(k)];
+        const auto point = sfm.points.find(x.id);
+        if (point == sfm.points.end()) continue;
+        auto own_it = own.find(x.camera_a);
+        if (own_it == own.end()) {
+          own_it =
+              own.emplace(x.camera_a, BearingsById(frame.cameras[static_cast<size_t>(x.camera_a)])).first;
+        }
+        const auto bearing_a = own_it->second.find(x.id);
+        if (bearing_a == own_it->second.end()) continue;
+        const Eigen::Vector3d f_a = bearing_a->second.normalized();
+        const Rigid3d& anchor_from_cam = sfm.anchor_from_cam[static_cast<size_t>(t - anchor)];
+        const Eigen::Vector3d p_sfm =
+            anchor_from_cam.rotation.conjugate() * (point->second - anchor_from_cam.translation);
+        if (!(p_sfm.dot(f_a) > 0.0)) continue;
+        const Camera& cam_a = rig.cameras[static_cast<size_t>(x.camera_a)];
+        const Camera& cam_b = rig.cameras[static_cast<size_t>(x.camera_b)];
+        const Rigid3d a_from_b = cam_a.cam_from_rig * cam_b.cam_from_rig.Inverse();
+        const Eigen::Vector3d f_b = a_from_b.rotation * x.bearing_b.normalized();
+        const std::optional<Eigen::Vector3d> p_metric = initializer_internal::TriangulateMidpoint(
+            Eigen::Vector3d::Zero(), f_a, a_from_b.translation, f_b);
+        if (!p_metric || !p_metric->allFinite() || !(p_sfm.norm() > 0.0)) continue;
+        per_camera[static_cast<size_t>(k)].push_back(
+            {p_metric->norm() / p_sfm.norm(), p_sfm, a_from_b.translation, p_metric->norm()});
+      }
+    }
+    // Per camera: predicted angles, then a robust filter: normalised
+    // deviations from the median ratio beyond 3.5 robust stds are wrong
+    // matches or bad SfM points.
+    std::vector<ScaleMeasurement> out;
+    std::vector<double> deviations;
+    *num_matches = 0;
+    for (size_t k = 0; k < per_camera.size(); ++k) {
+      const std::vector<Match>& matches = per_camera[k];
+      if (matches.empty()) continue;
+      std::vector<double> ratios;
+      for (const Match& m : matches) ratios.push_back(m.ratio);
+      const double median = Median(ratios);
+      std::vector<ScaleMeasurement> candidates;
+      std::vector<double> z, deviation;
+      for (const Match& m : matches) {
+        const Eigen::Vector3d predicted = median * m.p_sfm;
+        const double angle = initializer_internal::AngleBetween(predicted, predicted - m.centre_b);
+        if (!(angle >= min_angle)) continue;
+        ScaleMeasurement sm;
+        sm.camera = static_cast<int>(k);
+        sm.sfm_length = m.p_sfm.norm();
+        sm.metric_length = m.metric_length;
+        sm.relative_sigma = sigma_angle / angle;
+        candidates.push_back(sm);
+        deviation.push_back(m.ratio / median - 1.0);
+        z.push_back(deviation.back() / sm.relative_sigma);
+      }
+      const double z_sigma = std::max(RobustSpread(z), 0.1);
+      // The kept matches are averaged into one measurement of the camera:
+      // a_i = sfm_length / metric_length (proportional to the triangulation
+      // angle, so its noise is near zero-mean) has the weighted mean
+      // m = 1 / s, unbiased; one row per match would put the noise of each
+      // a_i into the coefficient of s and bias the least squares low by about
+      // the relative variance of a_i (several % at 2 px).
+      double sum_w = 0.0, sum_wa = 0.0;
+      std::vector<std::pair<double, double>> kept;  // (a_i, weight)
+      for (size_t i = 0; i < candidates.size(); ++i) {
+        if (std::abs(z[i]) > 3.5 * z_sigma) continue;
+        const double a = candidates[i].sfm_length / candidates[i].metric_length;
+        const double w = 1.0 / (candidates[i].relative_sigma * candidates[i].relative_sigma);
+        kept.emplace_back(a, w);
+        sum_w += w;
+        sum_wa += w * a;
+        deviations.push_back(deviation[i]);
+      }
+      const int n = static_cast<int>(kept.size());
+      if (n < options.min_cross_camera_matches || n < 2) continue;
+      const double mean = sum_wa / sum_w;
+      // Std of the weighted mean from the scatter (matches in the same frame
+      // share the SfM pose error, so this is optimistic like every estimate here).
+      double scatter = 0.0;
+      for (const auto& [a, w] : kept) scatter += w * (a - mean) * (a - mean);
+      const double sigma_mean = std::sqrt(scatter / (n - 1) / sum_w);
+      ScaleMeasurement sm;
+      sm.camera = static_cast<int>(k);
+      sm.sfm_length = mean;
+      sm.metric_length = 1.0;
+      sm.relative_sigma = std::max(sigma_mean / mean, 1e-9);
+      out.push_back(sm);
+      *num_matches += n;
+    }
+    *spread = RobustSpread(deviations);
+    return out;
+  }
+
+  // Step 4 acceptance. The combined solve runs without its per-camera
+  // uncertainty test; here the window is rejected unless the best
+  // determined camera's scale has a relative std of at most
+  // kLinearGateFactor x max_relative_scale_sigma. That is a screen only (it
+  // spares the rig BA hopeless windows): the rig BA, which uses every
+  // observation at once, estimates the scale and its uncertainty again and
+  // applies max_relative_scale_sigma itself (with the BA off, the principal
+  // camera's linear sigma must pass it). A camera whose scale is not
+  // positive or less certain than kMaxCameraRelativeSigma is left out of the
+  // result (its landmarks would start too far off) and the solve repeated.
+  bool SolveScale(std::vector<int>* used, std::vector<CameraSfmResult>* sfm_of_used,
+                  std::vector<CameraWindowTrack>* tracks, std::vector<ScaleMeasurement>* measurements,
+                  InitializationResult* result) {
+    constexpr double kMaxCameraRelativeSigma = 0.1;
+    constexpr double kLinearGateFactor = 3.0;
+    const double gate =
+        (options.max_rig_ba_iterations > 0 ? kLinearGateFactor : 1.0) * options.max_relative_scale_sigma;
+    RigScaleOptions scale_options;
+    scale_options.min_singular_value_ratio = options.min_singular_value_ratio;
+    scale_options.max_rms_residual_m = options.max_rms_residual_m;
+    scale_options.max_relative_scale_sigma = std::numeric_limits<double>::max();  // tested here, per camera
+    scale_options.estimate_measurement_sigma = false;  // their sigmas come from their own scatter
+    auto describe = [&](const std::string& text) {
+      return StrCat(NameCameras(text, *used, rig), " [", used->size(), " cameras, ",
+                    result->cross_camera_matches, " cross-camera matches]");
+    };
+    for (;;) {
+      if (used->size() < 2 && measurements->empty()) {
+        reason =
+            StrCat("scale not observable: one camera (", rig.cameras[static_cast<size_t>(used->front())].name,
+                   ") and no cross-camera observation");
+        return false;
+      }
+      RigScaleResult solve = SolveRigScalesCombined(*tracks, *measurements, scale_options);
+      if (solve.solution.empty()) {
+        reason = describe(solve.reason);
+        return false;
+      }
+      const std::vector<double> relative = RelativeSigmas(solve);
+      const size_t best =
+          static_cast<size_t>(std::min_element(relative.begin(), relative.end()) - relative.begin());
+      const size_t worst =
+          static_cast<size_t>(std::max_element(relative.begin(), relative.end()) - relative.begin());
+      if (!(relative[best] <= gate)) {
+        reason =
+            describe(std::isfinite(relative[best])
+                         ? StrCat("scale poorly observable: best determined camera ", best,
+                                  " has a scale sigma of ", FormatFixed(100.0 * relative[best], 2), " % > ",
+                                  FormatFixed(100.0 * gate, 2), " % (linear solve)")
+                         : StrCat("scale poorly observable: no camera has a positive scale (linear solve)"));
+        return false;
+      }
+      if (!(relative[worst] <= kMaxCameraRelativeSigma)) {
+        used->erase(used->begin() + static_cast<std::ptrdiff_t>(worst));
+        sfm_of_used->erase(sfm_of_used->begin() + static_cast<std::ptrdiff_t>(worst));
+        tracks->erase(tracks->begin() + static_cast<std::ptrdiff_t>(worst));
+        std::vector<ScaleMeasurement> kept;
+        for (ScaleMeasurement m : *measurements) {
+          if (m.camera == static_cast<int>(worst)) continue;
+          if (m.camera > static_cast<int>(worst)) --m.camera;
+          kept.push_back(m);
+        }
+        measurements->swap(kept);
+        continue;
+      }
+      if (!solve.observable) {
+        reason = describe(solve.reason);
+        return false;
+      }
+      result->rig_scale = solve;
+      break;
+    }
+    if (measurements->empty()) {
+      result->source = ScaleSource::kRigRotation;
+    } else {
+      // Combined when the rig rotation alone would also have passed.
+      bool rotation_alone = false;
+      if (used->size() >= 2) {
+        const RigScaleResult rig_only = SolveRigScalesCombined(*tracks, {}, scale_options);
+        if (!rig_only.solution.empty() && rig_only.observable) {
+          const std::vector<double> relative = RelativeSigmas(rig_only);
+          rotation_alone =
+              *std::min_element(relative.begin(), relative.end()) <= options.max_relative_scale_sigma;
+        }
+      }
+      result->source = rotation_alone ? ScaleSource::kCombined : ScaleSource::kCrossCamera;
+    }
+    return true;
+  }
+
+  // sigma_k / s_k per camera of a solution (infinity for a scale that is not positive).
+  static std::vector<double> RelativeSigmas(const RigScaleResult& solve) {
+    std::vector<double> relative(solve.solution.size());
+    for (size_t k = 0; k < relative.size(); ++k) {
+      relative[k] = solve.solution[k] > 0.0 ? solve.solution_sigmas[k] / solve.solution[k]
+                                            : std::numeric_limits<double>::infinity();
+    }
+    return relative;
+  }
+
+  std::optional<InitializationResult> Initialise(int anchor, const std::vector<bool>& passing) {
+    const int newest = static_cast<int>(window.size()) - 1;
+    std::vector<int> candidates;
+    for (int c = 0; c < NumCameras(); ++c) {
+      if (passing[static_cast<size_t>(c)]) candidates.push_back(c);
+    }
+    const std::vector<CameraSfmResult> sfm = RunSfm(anchor, candidates);
+    std::vector<int> used;
+    std::vector<CameraSfmResult> sfm_of_used;
+    std::string failure;  // the first required camera's SfM failure, else the first one
+    bool required_failed = false;
+    for (size_t k = 0; k < candidates.size(); ++k) {
+      const int c = candidates[k];
+      if (sfm[k].ok) {
+        used.push_back(c);
+        sfm_of_used.push_back(sfm[k]);
+        continue;
+      }
+      const bool is_required = required[static_cast<size_t>(c)];
+      if (failure.empty() || (is_required && !required_failed)) {
+        failure = StrCat(rig.cameras[static_cast<size_t>(c)].name, ": SfM failed: ", sfm[k].reason);
+      }
+      required_failed = required_failed || is_required;
+    }
+    if (required_failed || static_cast<int>(used.size()) < options.min_cameras_passing) {
+      reason = failure;
+      return std::nullopt;
+    }
+
+    // Each camera's SfM in the rig frame at l (A): q = r_c t_c(t), R = r_c R_c(t).
+    std::vector<CameraWindowTrack> tracks(used.size());
+    for (size_t k = 0; k < used.size(); ++k) {
+      const Camera& camera = rig.cameras[static_cast<size_t>(used[k])];
+      const Eigen::Quaterniond rig_from_cam = camera.cam_from_rig.rotation.conjugate();
+      CameraWindowTrack& track = tracks[k];
+      track.cam_from_rig = camera.cam_from_rig;
+      for (const Rigid3d& pose : sfm_of_used[k].anchor_from_cam) {
+        track.position_up_to_scale.push_back(rig_from_cam * pose.translation);
+        track.rotation.push_back((rig_from_cam * pose.rotation).toRotationMatrix());
+      }
+    }
+    InitializationResult result;
+    std::vector<ScaleMeasurement> measurements = CrossCameraMeasurements(
+        anchor, used, sfm_of_used, &result.cross_camera_matches, &result.cross_camera_scale_spread);
+
+    if (!SolveScale(&used, &sfm_of_used, &tracks, &measurements, &result)) return std::nullopt;
+
+    // Principal camera: the most features tracked through every frame l..r.
+    int principal_k = 0;
+    int best_stable = -1;
+    for (size_t k = 0; k < used.size(); ++k) {
+      std::map<uint64_t, int> seen;
+      for (int t = anchor; t <= newest; ++t) {
+        for (const FeatureObservation& f :
+             window[static_cast<size_t>(t)].cameras[static_cast<size_t>(used[k])]) {
+          ++seen[f.id];
+        }
+      }
+      int stable = 0;
+      for (const auto& [id, n] : seen) stable += n == newest - anchor + 1 ? 1 : 0;
+      if (stable > best_stable) {
+        best_stable = stable;
+        principal_k = static_cast<int>(k);
+      }
+    }
+
+    // Step 5: metric rig poses from the principal camera, landmarks from
+    // every camera, then refined together by the rig window BA.
+    const std::vector<double>& scales = result.rig_scale.scales;
+    const Camera& principal = rig.cameras[static_cast<size_t>(used[static_cast<size_t>(principal_k)])];
+    const Rigid3d rig_from_principal = principal.cam_from_rig.Inverse();
+    std::vector<Rigid3d> world_from_rig;
+    for (int t = anchor; t <= newest; ++t) {
+      const Rigid3d& pose =
+          sfm_of_used[static_cast<size_t>(principal_k)].anchor_from_cam[static_cast<size_t>(t - anchor)];
+      const Rigid3d metric(pose.rotation, scales[static_cast<size_t>(principal_k)] * pose.translation);
+      world_from_rig.push_back(rig_from_principal * metric * principal.cam_from_rig);
+      result.frame_index.push_back(window[static_cast<size_t>(t)].frame_index);
+      result.t_ns.push_back(window[static_cast<size_t>(t)].t_ns);
+    }
+    std::map<uint64_t, Eigen::Vector3d> points;
+    std::map<uint64_t, int> point_camera;
+    for (size_t k = 0; k < used.size(); ++k) {
+      const Rigid3d rig_from_cam = rig.cameras[static_cast<size_t>(used[k])].cam_from_rig.Inverse();
+      for (const auto& [id, point] : sfm_of_used[k].points) {
+        // Ids are unique over cameras; a repeated one keeps the first camera's.
+        if (points.emplace(id, rig_from_cam * (scales[k] * point)).second) point_camera.emplace(id, used[k]);
+      }
+    }
+    if (options.max_rig_ba_iterations > 0) {
+      std::vector<Rigid3d> cam_from_rig;
+      for (const Camera& camera : rig.cameras) cam_from_rig.push_back(camera.cam_from_rig);
+      std::vector<RigWindowObservation> observations;
+      for (int t = anchor; t <= newest; ++t) {
+        const RigFrameObservations& frame = window[static_cast<size_t>(t)];
+        for (int c : used) {
+          for (const FeatureObservation& f : frame.cameras[static_cast<size_t>(c)]) {
+            if (points.count(f.id) != 0) observations.push_back({t - anchor, c, f.id, f.bearing});
+          }
+        }
+        for (const CrossCameraObservation& x : frame.cross_camera) {
+          if (x.camera_b >= 0 && x.camera_b < NumCameras() && x.camera_b != x.camera_a &&
+              points.count(x.id) != 0) {
+            observations.push_back({t - anchor, x.camera_b, x.id, x.bearing_b});
+          }
+        }
+      }
+      RigWindowBaOptions ba_options;
+      ba_options.focal_px = options.sfm.focal_px;
+      // Residuals, the Huber loss and the outlier threshold in each camera's own pixels.
+      for (const Camera& camera : rig.cameras) ba_options.camera_focal_px.push_back(camera.MeanFocalLength());
+      ba_options.huber_px = options.sfm.ba_huber_px;
+      ba_options.max_reprojection_px = options.sfm.max_reprojection_px;
+      ba_options.max_iterations = options.max_rig_ba_iterations;
+      const RigWindowBaResult ba =
+          AdjustRigWindow(cam_from_rig, 0, world_from_rig, points, observations, ba_options);
+      if (!ba.ok) {
+        reason = ba.reason;
+        return std::nullopt;
+      }
+      result.relative_scale_sigma = ba.travel_relative_sigma;
+      if (!(ba.travel_relative_sigma <= options.max_relative_scale_sigma)) {
+        reason = StrCat("scale poorly observable: rig bundle adjustment gives a scale sigma of ",
+                        FormatFixed(100.0 * ba.travel_relative_sigma, 2), " % > ",
+                        FormatFixed(100.0 * options.max_relative_scale_sigma, 2), " %");
+        return std::nullopt;
+      }
+      world_from_rig = ba.world_from_rig;
+      points = ba.points;
+    } else {
+      result.relative_scale_sigma = RelativeSigmas(result.rig_scale)[static_cast<size_t>(principal_k)];
+      if (!(result.relative_scale_sigma <= options.max_relative_scale_sigma)) {
+        reason = StrCat("scale poorly observable: principal camera ", principal.name,
+                        " has a scale sigma of ", FormatFixed(100.0 * result.relative_scale_sigma, 2),
+                        " % > ", FormatFixed(100.0 * options.max_relative_scale_sigma, 2), " %");
+        return std::nullopt;
+      }
+    }
+    result.world_from_rig = world_from_rig;
+    for (const auto& [id, point] : points) {
+      InitializationResult::Landmark lm;
+      lm.id = id;
+      lm.camera = point_camera.at(id);
+      lm.point_in_world = point;
+      result.landmarks.push_back(lm);
+    }
+    result.anchor_frame_index = window[static_cast<size_t>(anchor)].frame_index;
+    result.principal_camera = used[static_cast<size_t>(principal_k)];
+    result.camera_used.assign(static_cast<size_t>(NumCameras()), false);
+    result.camera_scales.assign(static_cast<size_t>(NumCameras()), 0.0);
+    for (size_t k = 0; k < used.size(); ++k) {
+      result.camera_used[static_cast<size_t>(used[k])] = true;
+      result.camera_scales[static_cast<size_t>(used[k])] = scales[k];
+    }
+    result.attempts = attempts;
+    return result;
+  }
+
+  const Rig rig;
+  const InitializerOptions options;
+  const int threads;
+  std::vector<bool> required;  // per rig camera
+  std::deque<RigFrameObservations> window;
+  std::string reason;
+  bool spent = false;
+  int attempts = 0;
+};
+
+Initializer::Initializer(const Rig& rig, const InitializerOptions& options, int threads)
+    : impl_(std::make_unique<Impl>(rig, options, threads)) {}
+
+Initializer::~Initializer() = default;
+
+std::optional<InitializationResult> Initializer::AddFrame(const RigFrameObservations& frame) {
+  return impl_->AddFrame(frame);
+}
+
+const std::string& Initializer::WaitingReason() const { return impl_->reason; }
+
+void Initializer::Reset() { impl_->Reset(); }
+
+}  // namespace mcvo
