@@ -42,6 +42,16 @@ void Visit(V& v, SuperPointOptions* o) {
 }
 
 template <typename V>
+void Visit(V& v, CrossCameraOptions* o) {
+  v.Field("enabled", &o->enabled);
+  v.Field("min_view_overlap", &o->min_view_overlap);
+  v.Field("init_distance_m", &o->init_distance_m);
+  v.Field("epipolar_threshold_px", &o->epipolar_threshold_px);
+  v.Field("min_angle_deg", &o->min_angle_deg);
+  v.Field("max_matches_per_pair", &o->max_matches_per_pair);
+}
+
+template <typename V>
 void Visit(V& v, FrontendOptions* o) {
   v.Enum("detector", &o->detector, kDetectorTypeNames);
   v.Field("model_path", &o->model_path);
@@ -55,6 +65,21 @@ void Visit(V& v, FrontendOptions* o) {
   v.Section("clahe", &o->clahe);
   v.Section("lk", &o->lk);
   v.Section("superpoint", &o->superpoint);
+  v.Section("cross_camera", &o->cross_camera);
+}
+
+template <typename V>
+void Visit(V& v, CameraSfmOptions* o) {
+  v.Field("ransac_threshold_px", &o->ransac_threshold_px);
+  v.Field("focal_px", &o->focal_px);
+  v.Field("ransac_max_iterations", &o->ransac_max_iterations);
+  v.Field("min_correspondences", &o->min_correspondences);
+  v.Field("min_inliers", &o->min_inliers);
+  v.Field("min_triangulation_angle_deg", &o->min_triangulation_angle_deg);
+  v.Field("min_points_for_pnp", &o->min_points_for_pnp);
+  v.Field("max_reprojection_px", &o->max_reprojection_px);
+  v.Field("max_ba_iterations", &o->max_ba_iterations);
+  v.Field("ba_huber_px", &o->ba_huber_px);
 }
 
 template <typename V>
@@ -62,9 +87,16 @@ void Visit(V& v, InitializerOptions* o) {
   v.Field("window_size", &o->window_size);
   v.Field("min_correspondences", &o->min_correspondences);
   v.Field("min_parallax_px", &o->min_parallax_px);
+  v.Field("virtual_focal_px", &o->virtual_focal_px);
   v.Field("min_cameras_passing", &o->min_cameras_passing);
   v.NamesOrAll("required_cameras", &o->required_cameras);
-  v.Field("scale_initial_guess", &o->scale_initial_guess);
+  v.Field("min_cross_camera_matches", &o->min_cross_camera_matches);
+  v.Field("min_cross_camera_angle_deg", &o->min_cross_camera_angle_deg);
+  v.Field("min_singular_value_ratio", &o->min_singular_value_ratio);
+  v.Field("max_rms_residual_m", &o->max_rms_residual_m);
+  v.Field("max_relative_scale_sigma", &o->max_relative_scale_sigma);
+  v.Field("max_rig_ba_iterations", &o->max_rig_ba_iterations);
+  v.Section("sfm", &o->sfm);
 }
 
 template <typename V>
@@ -81,8 +113,17 @@ void Visit(V& v, BackendOptions* o) {
   v.Field("min_observations", &o->min_observations);
   v.Field("keyframe_parallax_px", &o->keyframe_parallax_px);
   v.Field("keyframe_min_tracked", &o->keyframe_min_tracked);
+  v.Field("outlier_threshold_px", &o->outlier_threshold_px);
+  v.Field("pnp_threshold_px", &o->pnp_threshold_px);
+  v.Field("min_pnp_inliers", &o->min_pnp_inliers);
   v.Field("scale_correction_period", &o->scale_correction_period);
+  v.Field("scale_correction_min_change", &o->scale_correction_min_change);
   v.Field("refine_extrinsics", &o->refine_extrinsics);
+}
+
+template <typename V>
+void Visit(V& v, DatasetSelectionOptions* o) {
+  v.NamesOrAll("cameras", &o->cameras);
 }
 
 template <typename V>
@@ -114,6 +155,7 @@ void Visit(V& v, EvalOptions* o) {
 
 template <typename V>
 void Visit(V& v, PipelineOptions* o) {
+  v.Section("dataset", &o->dataset);
   v.Section("frontend", &o->frontend);
   v.Section("initializer", &o->initializer);
   v.Section("backend", &o->backend);

@@ -11,36 +11,14 @@
 
 namespace mcvo {
 
-void InitializerOptions::Check() const {
-  CheckAtLeast("/initializer/window_size", window_size, 2);
-  // A fundamental matrix needs 8 correspondences.
-  CheckAtLeast("/initializer/min_correspondences", min_correspondences, 8);
-  CheckAtLeast("/initializer/min_parallax_px", min_parallax_px, 0.0);
-  CheckAtLeast("/initializer/min_cameras_passing", min_cameras_passing, 1);
+void DatasetSelectionOptions::Check() const {
   std::set<std::string> seen;
-  for (size_t i = 0; i < required_cameras.size(); ++i) {
-    if (required_cameras[i].empty())
-      MCVO_THROW_INPUT("/initializer/required_cameras/", i, ": empty camera name");
-    if (!seen.insert(required_cameras[i]).second) {
-      MCVO_THROW_INPUT("/initializer/required_cameras/", i, ": camera \"", required_cameras[i],
-                       "\" listed twice");
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    if (cameras[i].empty()) MCVO_THROW_INPUT("/dataset/cameras/", i, ": empty camera name");
+    if (!seen.insert(cameras[i]).second) {
+      MCVO_THROW_INPUT("/dataset/cameras/", i, ": camera \"", cameras[i], "\" listed twice");
     }
   }
-  CheckPositive("/initializer/scale_initial_guess", scale_initial_guess);
-}
-
-void BackendOptions::Check() const {
-  CheckAtLeast("/backend/window_size", window_size, 2);
-  CheckAtLeast("/backend/max_iterations", max_iterations, 1);
-  CheckAtLeast("/backend/max_solver_time_s", max_solver_time_s, 0.0);
-  CheckPositive("/backend/loss_scale", loss_scale);
-  CheckPositive("/backend/reprojection_sigma_px", reprojection_sigma_px);
-  CheckPositive("/backend/virtual_focal_px", virtual_focal_px);
-  CheckPositive("/backend/init_depth_m", init_depth_m);
-  CheckAtLeast("/backend/min_observations", min_observations, 2);
-  CheckAtLeast("/backend/keyframe_parallax_px", keyframe_parallax_px, 0.0);
-  CheckAtLeast("/backend/keyframe_min_tracked", keyframe_min_tracked, 0);
-  CheckAtLeast("/backend/scale_correction_period", scale_correction_period, 0);
 }
 
 void LoopOptions::Check() const {
@@ -53,6 +31,7 @@ void LoopOptions::Check() const {
 void RuntimeOptions::Check() const { CheckAtLeast("/runtime/threads", threads, 0); }
 
 void PipelineOptions::Check() const {
+  dataset.Check();
   frontend.Check();
   initializer.Check();
   backend.Check();

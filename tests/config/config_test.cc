@@ -30,6 +30,28 @@ TEST(Config, ShippedDefaultJsonIsCurrent) {
   EXPECT_EQ(PipelineOptionsToJson(ReadPipelineOptions(path)), PipelineOptionsToJson(PipelineOptions()));
 }
 
+// Every preset in config/ (the pipeline configs, not the rigs) reads and
+// passes Check, and its camera selection names cameras of the KITTI-360 rig
+// where the preset is a KITTI-360 one.
+TEST(Config, ShippedPresetsReadAndCheck) {
+  int presets = 0;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::filesystem::path(MCVO_SOURCE_DIR) / "config")) {
+    if (!entry.is_regular_file() || entry.path().extension() != ".json") continue;
+    SCOPED_TRACE(entry.path().string());
+    PipelineOptions options;
+    ASSERT_NO_THROW(options = ReadPipelineOptions(entry.path()));
+    EXPECT_NO_THROW(options.Check());
+    const std::string stem = entry.path().stem().string();
+    if (stem.rfind("kitti360_", 0) == 0) {
+      const size_t cameras = static_cast<size_t>(stem[9] - '0');
+      EXPECT_EQ(options.dataset.cameras.size(), cameras);
+    }
+    ++presets;
+  }
+  EXPECT_GE(presets, 7);  // default + six presets
+}
+
 TEST(Config, EmptyObjectGivesDefaults) {
   EXPECT_EQ(PipelineOptionsToJson(ParsePipelineOptions("{}", "c.json")),
             PipelineOptionsToJson(PipelineOptions()));
@@ -93,9 +115,9 @@ TEST(Config, UnknownKeysAreRejectedAtAnyDepth) {
       ErrorOf(R"({"frontend": {"lk": {"window": 21}}})"),
       "c.json: /frontend/lk/window: unknown key (valid keys: window_px, pyramid_levels, max_iterations, "
       "forward_backward_check, forward_backward_threshold_px)");
-  EXPECT_EQ(
-      ErrorOf(R"({"frontnd": {}})"),
-      "c.json: /frontnd: unknown key (valid keys: frontend, initializer, backend, loop, runtime, eval)");
+  EXPECT_EQ(ErrorOf(R"({"frontnd": {}})"),
+            "c.json: /frontnd: unknown key (valid keys: dataset, frontend, initializer, backend, loop, "
+            "runtime, eval)");
   EXPECT_NE(ErrorOf(R"({"backend": {"window_size": 10, "windowsize": 10}})")
                 .find("c.json: /backend/windowsize: unknown key"),
             std::string::npos);

@@ -17,51 +17,23 @@
 #include <string_view>
 #include <vector>
 
+#include "mcvo/backend/backend_options.h"
 #include "mcvo/eval/evaluate.h"
 #include "mcvo/frontend/frontend_options.h"
+#include "mcvo/initializer/initializer.h"
 #include "mcvo/util/enum_names.h"
 
 namespace mcvo {
-
-enum class LossType { kHuber, kCauchy, kTrivial };
-inline constexpr EnumName<LossType> kLossTypeNames[] = {
-    {LossType::kHuber, "huber"}, {LossType::kCauchy, "cauchy"}, {LossType::kTrivial, "none"}};
-
-enum class SolverType { kDogleg, kLevenbergMarquardt };
-inline constexpr EnumName<SolverType> kSolverTypeNames[] = {
-    {SolverType::kDogleg, "dogleg"}, {SolverType::kLevenbergMarquardt, "levenberg_marquardt"}};
 
 inline constexpr EnumName<AlignmentMode> kAlignmentModeNames[] = {{AlignmentMode::kSe3, "se3"},
                                                                   {AlignmentMode::kSim3, "sim3"},
                                                                   {AlignmentMode::kPosYaw, "posyaw"},
                                                                   {AlignmentMode::kNone, "none"}};
 
-struct InitializerOptions {
-  int window_size = 10;
-  int min_correspondences = 20;               // with the newest frame, per camera
-  double min_parallax_px = 30.0;              // mean, at focal 460
-  int min_cameras_passing = 2;                // fallback when not all cameras pass
-  std::vector<std::string> required_cameras;  // empty: "all" in JSON
-  double scale_initial_guess = 10.0;
-
-  void Check() const;
-};
-
-struct BackendOptions {
-  int window_size = 10;  // keyframes, plus the newest frame
-  SolverType solver = SolverType::kDogleg;
-  int max_iterations = 8;
-  double max_solver_time_s = 0.0;     // 0: no limit (required in deterministic mode)
-  LossType loss = LossType::kCauchy;  // the release uses Cauchy(1); the paper says Huber
-  double loss_scale = 1.0;
-  double reprojection_sigma_px = 1.5;  // at focal virtual_focal_px (information 460 / 1.5)
-  double virtual_focal_px = 460.0;
-  double init_depth_m = 5.0;  // depth prior of a new landmark
-  int min_observations = 2;   // landmarks seen fewer times are not optimised
-  double keyframe_parallax_px = 10.0;
-  int keyframe_min_tracked = 20;
-  int scale_correction_period = 50;  // solves between scale corrections; 0: never
-  bool refine_extrinsics = false;
+// Which cameras of the dataset's rig the pipeline uses (a preset for the
+// 3-camera KITTI-360 rig names them); `--cameras` on the command line wins.
+struct DatasetSelectionOptions {
+  std::vector<std::string> cameras;  // names, in the order to use; empty ("all" in JSON): every camera
 
   void Check() const;
 };
@@ -86,6 +58,7 @@ struct RuntimeOptions {
 };
 
 struct PipelineOptions {
+  DatasetSelectionOptions dataset;
   FrontendOptions frontend;
   InitializerOptions initializer;
   BackendOptions backend;

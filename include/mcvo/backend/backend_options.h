@@ -1,0 +1,43 @@
+// Options of the back end (sliding-window bundle adjustment, keyframes,
+// marginalisation, scale correction). Defaults follow the published
+// implementation (../shared/reference/mcvo-reference-notes.md) unless said
+// otherwise. Every key: docs/config.md.
+#pragma once
+
+#include "mcvo/util/enum_names.h"
+
+namespace mcvo {
+
+enum class LossType { kHuber, kCauchy, kTrivial };
+inline constexpr EnumName<LossType> kLossTypeNames[] = {
+    {LossType::kHuber, "huber"}, {LossType::kCauchy, "cauchy"}, {LossType::kTrivial, "none"}};
+
+enum class SolverType { kDogleg, kLevenbergMarquardt };
+inline constexpr EnumName<SolverType> kSolverTypeNames[] = {
+    {SolverType::kDogleg, "dogleg"}, {SolverType::kLevenbergMarquardt, "levenberg_marquardt"}};
+
+struct BackendOptions {
+  int window_size = 10;  // keyframes, plus the newest frame
+  SolverType solver = SolverType::kDogleg;
+  int max_iterations = 8;
+  double max_solver_time_s = 0.0;      // 0: no limit (required in deterministic mode)
+  LossType loss = LossType::kHuber;    // the paper's Huber; the release uses Cauchy(1)
+  double loss_scale = 1.0;             // in units of reprojection_sigma_px
+  double reprojection_sigma_px = 1.5;  // at virtual_focal_px (information 460 / 1.5)
+  double virtual_focal_px = 460.0;
+  double init_depth_m = 5.0;           // depth of a new landmark that cannot be triangulated yet
+  int min_observations = 2;            // landmarks seen fewer times are not optimised
+  double keyframe_parallax_px = 10.0;  // mean parallax to the last keyframe, at virtual_focal_px
+  int keyframe_min_tracked = 20;       // fewer tracked landmarks in a camera: keyframe
+  double outlier_threshold_px = 3.0;   // observations above this after BA are removed
+  double pnp_threshold_px = 2.0;       // rig absolute pose inlier threshold, at virtual_focal_px
+  int min_pnp_inliers = 12;
+  int scale_correction_period = 50;            // solves between scale corrections; 0: never
+  double scale_correction_min_change = 0.002;  // relative change below which none is applied
+  bool refine_extrinsics = false;              // camera 0's extrinsic stays fixed (gauge)
+
+  // Throws InputError naming the field by its config path ("/backend/...").
+  void Check() const;
+};
+
+}  // namespace mcvo
