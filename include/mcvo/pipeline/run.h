@@ -1,0 +1,63 @@
+// `mcvo run`: one command from a dataset (images, or a track file made by
+// `mcvo track`) to a metric trajectory and everything needed to trust it.
+//
+// Stages: images are decoded in background threads (FrameStream), the
+// frontend tracks all cameras of a frame in parallel (MultiCameraTracker),
+// and the estimator (backend/estimator.h) runs on its own thread, one frame
+// behind the frontend. Each stage is deterministic and frames pass between
+// them in order, so the outputs are identical at any thread count.
+//
+// Outputs (docs/run-outputs.md): written into "<out>.tmp-<pid>" and renamed
+// to <out> when complete, so a run that fails leaves no output folder that
+// looks finished.
+//   trajectory.tum / trajectory_kitti.txt / trajectory_euroc.csv  every posed frame
+//   keyframes.tum        keyframe poses when they left the window
+//   scale_log.csv        initialisations, scale corrections, tracking losses
+//   frame_stats.csv      per frame: state, features and landmarks per camera, BA
+//   timing.csv           per frame wall time of each stage (NOT deterministic)
+//   run.json             resolved config, version, input and output hashes, timings
+//   eval/                `mcvo eval` outputs when the dataset has ground truth
+// Every file except timing.csv and run.json's "timing" section is
+// byte-identical for the same inputs and config, at any thread count.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "mcvo/config/pipeline_options.h"
+#include "mcvo/dataset/dataset.h"
+
+namespace mcvo {
+
+struct RunRequest {
+  DatasetOptions dataset;
+  std::filesystem::path tracks;  // optional: a track file of the same dataset (no image is decoded)
+  std::filesystem::path out_dir;
+  bool force = false;         // replace a non-empty output folder
+  PipelineOptions options;    // checked
+  std::string config_source;  // config file path, or "built-in defaults"
+  int max_frames = 0;         // 0: all
+  std::string command_line;   // for run.json
+  std::string version;        // program version, for run.json
+};
+
+struct RunSummary {
+  int frames = 0;
+  int posed_frames = 0;
+  int keyframes = 0;
+  int segments = 1;
+  double seconds = 0.0;
+  double frames_per_second = 0.0;
+  bool evaluated = false;
+  double ate_rmse_m = 0.0;
+  double ate_percent_of_path = 0.0;
+  double scale_error_percent = 0.0;
+  double gt_path_length_m = 0.0;
+};
+
+// Runs the pipeline. Bad input throws InputError / UsageError naming the file
+// and field; nothing is left at out_dir then.
+RunSummary RunPipeline(const RunRequest& request);
+
+}  // namespace mcvo

@@ -1,0 +1,461 @@
+#include "mcvo/pipeline/run.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+
+#include "mcvo/backend/estimator.h"
+#include "mcvo/config/config.h"
+#include "mcvo/eval/report.h"
+#include "mcvo/frontend/multi_camera_tracker.h"
+#include "mcvo/frontend/track_file.h"
+#include "mcvo/io/json_util.h"
+#include "mcvo/io/rig_io.h"
+#include "mcvo/io/trajectory_io.h"
+#include "mcvo/util/error.h"
+#include "mcvo/util/file.h"
+#include "mcvo/util/logging.h"
+#include "mcvo/util/progress.h"
+#include "mcvo/util/sha256.h"
+#include "mcvo/util/strings.h"
+
+namespace mcvo {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// A frame from the frontend (tracked now, or read from a track file) and the
+// wall time it took.
+struct FrontendItem {
+  MultiCameraFrame frame;
+  double seconds = 0.0;
+};
+
+// Single-producer single-consumer queue with a bounded size; the producer's
+// exception is handed to the consumer.
+class FrameQueue {
+ public:
+  explicit FrameQueue(size_t capacity) : capacity_(capacity) {}
+
+  void Push(FrontendItem item) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    not_full_.wait(lock, [&] { return items_.size() < capacity_ || cancelled_; });
+    if (cancelled_) return;
+    items_.push_back(std::move(item));
+    not_empty_.notify_one();
+  }
+  void Close(std::exception_ptr error) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    closed_ = true;
+    error_ = std::move(error);
+    not_empty_.notify_one();
+  }
+  void Cancel() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    cancelled_ = true;
+    not_full_.notify_all();
+  }
+  bool cancelled() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return cancelled_;
+  }
+  // The next item; nullopt at the end. Rethrows the producer's exception.
+  std::optional<FrontendItem> Pop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    not_empty_.wait(lock, [&] { return !items_.empty() || closed_; });
+    if (!items_.empty()) {
+      FrontendItem item = std::move(items_.front());
+      items_.pop_front();
+      not_full_.notify_one();
+      return item;
+    }
+    if (error_) std::rethrow_exception(error_);
+    return std::nullopt;
+  }
+
+ private:
+  const size_t capacity_;
+  std::mutex mutex_;
+  std::condition_variable not_full_, not_empty_;
+  std::deque<FrontendItem> items_;
+  bool closed_ = false;
+  bool cancelled_ = false;
+  std::exception_ptr error_;
+};
+
+RigFrameObservations ToObservations(const Rig& rig, const MultiCameraFrame& frame) {
+  RigFrameObservations obs;
+  obs.frame_index = frame.frame_index;
+  obs.t_ns = frame.t_ns;
+  const int n = rig.NumCameras();
+  obs.cameras.resize(n);
+  obs.camera_missing.assign(n, false);
+  for (int c = 0; c < n; ++c) {
+    const CameraFrameResult& camera = frame.cameras[c];
+    obs.camera_missing[c] = camera.stats.image_missing;
+    obs.cameras[c].reserve(camera.features.size());
+    for (const TrackedFeature& f : camera.features) {
+      const Eigen::Vector2d pixel = f.pixel.cast<double>();
+      const std::optional<Eigen::Vector3d> bearing = rig.cameras[c].Unproject(pixel);
+      if (!bearing) continue;
+      obs.cameras[c].push_back({f.id, pixel, bearing->normalized()});
+    }
+  }
+  for (const CrossCameraMatch& m : frame.cross_matches) {
+    const Eigen::Vector2d pixel = m.pixel_b.cast<double>();
+    const std::optional<Eigen::Vector3d> bearing = rig.cameras[m.camera_b].Unproject(pixel);
+    if (!bearing) continue;
+    obs.cross_camera.push_back({m.camera_a, m.id_a, m.camera_b, pixel, bearing->normalized()});
+  }
+  return obs;
+}
+
+std::string CsvQuote(const std::string& text) {
+  std::string out = "\"";
+  for (char ch : text) {
+    if (ch == '"') out += '"';
+    out += ch;
+  }
+  return out + "\"";
+}
+
+struct StageSeconds {
+  double frontend = 0, initializer = 0, pnp = 0, ba = 0, marginalization = 0, scale = 0, backend = 0;
+};
+
+void CheckOutputFolder(const std::filesystem::path& out_dir, bool force) {
+  std::error_code ec;
+  if (std::filesystem::exists(out_dir, ec)) {
+    if (!std::filesystem::is_directory(out_dir, ec))
+      MCVO_THROW_INPUT(out_dir.string(), ": exists and is not a folder");
+    if (!std::filesystem::is_empty(out_dir, ec) && !force) {
+      MCVO_THROW_INPUT(out_dir.string(), ": folder exists and is not empty (use --force to replace it)");
+    }
+  }
+}
+
+}  // namespace
+
+RunSummary RunPipeline(const RunRequest& request) {
+  const PipelineOptions& options = request.options;
+  options.Check();
+  CheckOutputFolder(request.out_dir, request.force);
+  DatasetOptions dataset_options = request.dataset;
+  if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
+  const DatasetIndex index = OpenDataset(dataset_options);
+  const Rig& rig = index.rig;
+  const int threads = options.runtime.threads > 0
+                          ? options.runtime.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  for (const std::string& name : options.initializer.required_cameras) {
+    if (rig.FindCamera(name) < 0) {
+      MCVO_THROW_INPUT(request.config_source, ": /initializer/required_cameras: camera \"", name,
+                       "\" is not in the rig of ", index.root.string());
+    }
+  }
+
+  // Frame source, set up before anything is decoded so that a bad model or
+  // a mismatched track file is reported at start-up.
+  std::unique_ptr<TrackFileReader> track_reader;
+  std::unique_ptr<MultiCameraTracker> tracker;
+  if (!request.tracks.empty()) {
+    track_reader = std::make_unique<TrackFileReader>(request.tracks);
+    const auto& names = track_reader->header().camera_names;
+    std::vector<std::string> rig_names;
+    for (const Camera& camera : rig.cameras) rig_names.push_back(camera.name);
+    if (names != rig_names) {
+      std::string have, want;
+      for (const auto& n : names) have += (have.empty() ? "" : ",") + n;
+      for (const auto& n : rig_names) want += (want.empty() ? "" : ",") + n;
+      MCVO_THROW_INPUT(request.tracks.string(), ": cameras [", have, "] do not match the dataset's [", want,
+                       "] (use --cameras to select the same cameras)");
+    }
+  } else {
+    tracker = std::make_unique<MultiCameraTracker>(rig, index.masks, options.frontend, threads);
+  }
+  Estimator estimator(rig, options.initializer, options.backend, threads);
+
+  // Staging folder, renamed onto out_dir when everything is written.
+  const std::filesystem::path absolute_out = std::filesystem::absolute(request.out_dir).lexically_normal();
+  CreateDirectories(absolute_out.parent_path());
+  TemporaryFolder staging(absolute_out.parent_path() /
+                          (absolute_out.filename().string() + ".tmp-" + std::to_string(::getpid())));
+  std::error_code ec;
+  std::filesystem::remove_all(staging.path(), ec);
+  CreateDirectories(staging.path());
+
+  const int total_frames = request.max_frames > 0
+                               ? std::min<int>(request.max_frames, static_cast<int>(index.frames.size()))
+                               : static_cast<int>(index.frames.size());
+  for (const std::string& line : index.log) MCVO_LOG(kInfo, "dataset: ", line);
+  MCVO_LOG(kInfo, "run: ", index.name, " (", index.format, "), ", total_frames, " frames, ", rig.NumCameras(),
+           " cameras, ", request.tracks.empty() ? "tracking images" : "replaying " + request.tracks.string(),
+           ", ", threads, " threads");
+
+  // Producer: the frontend on its own thread, one bounded queue ahead.
+  FrameQueue queue(4);
+  std::thread producer([&] {
+    std::exception_ptr error;
+    try {
+      if (track_reader) {
+        int produced = 0;
+        while (produced < total_frames && !queue.cancelled()) {
+          const Clock::time_point start = Clock::now();
+          std::optional<MultiCameraFrame> frame = track_reader->Next();
+          if (!frame) break;
+          queue.Push({std::move(*frame), SecondsSince(start)});
+          ++produced;
+        }
+      } else {
+        FrameStreamOptions stream_options;
+        stream_options.threads = threads;
+        FrameStream stream(index, stream_options);
+        int produced = 0;
+        while (produced < total_frames && !queue.cancelled()) {
+          const Clock::time_point start = Clock::now();
+          std::optional<FrameImages> images = stream.Next();
+          if (!images) break;
+          MultiCameraFrame frame = tracker->Track(images->index, images->t_ns, images->images);
+          queue.Push({std::move(frame), SecondsSince(start)});
+          ++produced;
+        }
+      }
+    } catch (...) {
+      error = std::current_exception();
+    }
+    queue.Close(error);
+  });
+  struct JoinOnExit {
+    std::thread* thread;
+    FrameQueue* queue;
+    ~JoinOnExit() {
+      queue->Cancel();
+      if (thread->joinable()) thread->join();
+    }
+  } join_on_exit{&producer, &queue};
+
+  // Consumer: the estimator, in frame order.
+  std::map<int, StampedPose> poses;  // frame index -> latest pose
+  std::vector<KeyframeEstimate> keyframes;
+  std::vector<ScaleLogEntry> scale_log;
+  std::string stats_csv =
+      "frame,t_ns,state,segment,keyframe,has_pose,pnp_inliers,landmarks,ba_iterations,"
+      "ba_initial_cost,ba_final_cost";
+  std::string timing_csv =
+      "frame,t_ns,frontend_s,initializer_s,pnp_s,ba_s,marginalization_s,scale_correction_s,backend_s\n";
+  for (const Camera& camera : rig.cameras) stats_csv += ",features_" + camera.name;
+  for (const Camera& camera : rig.cameras) stats_csv += ",landmarks_" + camera.name;
+  stats_csv += ",cross_camera,note\n";
+  StageSeconds totals;
+  RunSummary summary;
+  ProgressBar progress("run", total_frames, "frames");
+  const Clock::time_point run_start = Clock::now();
+  int last_segment = 0;
+  while (std::optional<FrontendItem> item = queue.Pop()) {
+    const Clock::time_point start = Clock::now();
+    const RigFrameObservations obs = ToObservations(rig, item->frame);
+    const FrameEstimate est = estimator.AddFrame(obs);
+    const double backend_seconds = SecondsSince(start);
+    for (const PoseUpdate& update : est.poses) {
+      StampedPose pose;
+      pose.t_ns = update.t_ns;
+      pose.frame_index = update.frame_index;
+      pose.world_from_body = update.world_from_rig;
+      poses[update.frame_index] = pose;
+    }
+    for (KeyframeEstimate& kf : estimator.TakeFinishedKeyframes()) keyframes.push_back(kf);
+    for (ScaleLogEntry& entry : estimator.TakeScaleLog()) scale_log.push_back(std::move(entry));
+    last_segment = std::max(last_segment, est.segment);
+
+    stats_csv += StrCat(est.frame_index, ",", est.t_ns, ",", EnumToName(kEstimatorStateNames, est.state), ",",
+                        est.segment, ",", est.keyframe ? 1 : 0, ",", est.has_pose ? 1 : 0, ",",
+                        est.pnp_inliers, ",", est.num_landmarks, ",", est.ba_iterations, ",",
+                        FormatDouble(est.ba_initial_cost), ",", FormatDouble(est.ba_final_cost));
+    for (int n : est.features_per_camera) stats_csv += StrCat(",", n);
+    for (int n : est.landmarks_per_camera) stats_csv += StrCat(",", n);
+    stats_csv += StrCat(",", obs.cross_camera.size(), ",", CsvQuote(est.waiting_reason), "\n");
+    timing_csv += StrCat(est.frame_index, ",", est.t_ns, ",", FormatFixed(item->seconds, 6), ",",
+                         FormatFixed(est.seconds_initializer, 6), ",", FormatFixed(est.seconds_pnp, 6), ",",
+                         FormatFixed(est.seconds_ba, 6), ",", FormatFixed(est.seconds_marginalization, 6),
+                         ",", FormatFixed(est.seconds_scale, 6), ",", FormatFixed(backend_seconds, 6), "\n");
+    totals.frontend += item->seconds;
+    totals.initializer += est.seconds_initializer;
+    totals.pnp += est.seconds_pnp;
+    totals.ba += est.seconds_ba;
+    totals.marginalization += est.seconds_marginalization;
+    totals.scale += est.seconds_scale;
+    totals.backend += backend_seconds;
+    ++summary.frames;
+    progress.Update(summary.frames);
+  }
+  progress.Finish();
+  for (KeyframeEstimate& kf : estimator.Finish()) keyframes.push_back(kf);
+  for (ScaleLogEntry& entry : estimator.TakeScaleLog()) scale_log.push_back(std::move(entry));
+  summary.seconds = SecondsSince(run_start);
+  summary.frames_per_second = summary.seconds > 0 ? summary.frames / summary.seconds : 0.0;
+  summary.posed_frames = static_cast<int>(poses.size());
+  summary.keyframes = static_cast<int>(keyframes.size());
+  summary.segments = last_segment + 1;
+
+  // Outputs.
+  Trajectory trajectory;
+  trajectory.has_time = true;
+  trajectory.has_frame_index = true;
+  for (const auto& [frame_index, pose] : poses) trajectory.poses.push_back(pose);
+  Trajectory keyframe_trajectory;
+  keyframe_trajectory.has_time = true;
+  keyframe_trajectory.has_frame_index = true;
+  for (const KeyframeEstimate& kf : keyframes) {
+    StampedPose pose;
+    pose.t_ns = kf.t_ns;
+    pose.frame_index = kf.frame_index;
+    pose.world_from_body = kf.world_from_rig;
+    keyframe_trajectory.poses.push_back(pose);
+  }
+  std::sort(keyframe_trajectory.poses.begin(), keyframe_trajectory.poses.end(),
+            [](const StampedPose& a, const StampedPose& b) { return a.frame_index < b.frame_index; });
+  const std::filesystem::path& dir = staging.path();
+  WriteTrajectory(dir / "trajectory.tum", trajectory, TrajectoryFormat::kTum);
+  WriteTrajectory(dir / "trajectory_kitti.txt", trajectory, TrajectoryFormat::kKittiIndexed);
+  WriteTrajectory(dir / "trajectory_euroc.csv", trajectory, TrajectoryFormat::kEuroc);
+  WriteTrajectory(dir / "keyframes.tum", keyframe_trajectory, TrajectoryFormat::kTum);
+  std::string scale_csv = "frame,t_ns,segment,event,applied";
+  for (const Camera& camera : rig.cameras) scale_csv += ",scale_" + camera.name;
+  scale_csv += ",rms_residual_m,singular_value_ratio,note\n";
+  for (const ScaleLogEntry& e : scale_log) {
+    scale_csv += StrCat(e.frame_index, ",", e.t_ns, ",", e.segment, ",", e.event, ",", e.applied ? 1 : 0);
+    for (int c = 0; c < rig.NumCameras(); ++c) {
+      scale_csv += ",";
+      if (c < static_cast<int>(e.camera_scales.size())) scale_csv += FormatDouble(e.camera_scales[c]);
+    }
+    scale_csv += StrCat(",", FormatDouble(e.rms_residual_m), ",", FormatDouble(e.singular_value_ratio), ",",
+                        CsvQuote(e.note), "\n");
+  }
+  WriteFileAtomic(dir / "scale_log.csv", scale_csv);
+  WriteFileAtomic(dir / "frame_stats.csv", stats_csv);
+  WriteFileAtomic(dir / "timing.csv", timing_csv);
+
+  if (index.ground_truth && trajectory.poses.size() >= MinPosesForAlignment(options.eval.align)) {
+    try {
+      const EvalResult result = EvaluateTrajectory(*index.ground_truth, trajectory, options.eval,
+                                                   (index.root / "groundtruth").string(), "trajectory.tum");
+      CreateDirectories(dir / "eval");
+      WriteEvalOutputs(dir / "eval", result);
+      summary.evaluated = true;
+      summary.ate_rmse_m = result.ate_translation_m.rmse;
+      summary.gt_path_length_m = result.gt_matched_path_length_m;
+      summary.ate_percent_of_path =
+          summary.gt_path_length_m > 0 ? 100.0 * summary.ate_rmse_m / summary.gt_path_length_m : 0.0;
+      summary.scale_error_percent = result.scale.scale_error_percent;
+    } catch (const InputError& e) {
+      MCVO_LOG(kWarning, "run: evaluation skipped: ", e.what());
+    }
+  }
+
+  // run.json: what was run, on what, what came out.
+  nlohmann::ordered_json run;
+  run["program"] = "mcvo";
+  run["version"] = request.version;
+  run["command_line"] = request.command_line;
+  run["config_source"] = request.config_source;
+  PipelineOptions recorded = options;
+  recorded.runtime.threads = 0;  // the thread count does not change the results
+  run["config"] = nlohmann::ordered_json::parse(PipelineOptionsToJson(recorded));
+  nlohmann::ordered_json dataset;
+  dataset["root"] = index.root.string();
+  dataset["format"] = index.format;
+  dataset["name"] = index.name;
+  dataset["frames"] = total_frames;
+  nlohmann::ordered_json cameras = nlohmann::ordered_json::array();
+  for (const Camera& camera : rig.cameras) cameras.push_back(camera.name);
+  dataset["cameras"] = cameras;
+  run["dataset"] = dataset;
+  nlohmann::ordered_json inputs;
+  inputs["rig_sha256"] = Sha256Hex(RigToJson(rig, index.root));
+  if (!request.tracks.empty()) {
+    inputs["tracks_sha256"] = Sha256File(request.tracks);
+  } else {
+    // One hash over the per-image hashes, in frame and camera order.
+    Sha256 images;
+    for (int f = 0; f < total_frames; ++f) {
+      for (const std::filesystem::path& path : index.frames[f].images) {
+        images.Update(path.empty() ? std::string("missing") : Sha256File(path));
+        images.Update("\n");
+      }
+    }
+    inputs["images_sha256"] = images.HexDigest();
+  }
+  run["inputs"] = inputs;
+  nlohmann::ordered_json outputs;
+  std::vector<std::filesystem::path> files;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
+    if (entry.is_regular_file()) files.push_back(entry.path());
+  }
+  std::sort(files.begin(), files.end());
+  for (const auto& path : files) {
+    outputs[std::filesystem::relative(path, dir).generic_string()] = Sha256File(path);
+  }
+  run["outputs_sha256"] = outputs;
+  nlohmann::ordered_json result;
+  result["frames"] = summary.frames;
+  result["posed_frames"] = summary.posed_frames;
+  result["keyframes"] = summary.keyframes;
+  result["segments"] = summary.segments;
+  if (summary.evaluated) {
+    result["ate_rmse_m"] = summary.ate_rmse_m;
+    result["ate_percent_of_path"] = summary.ate_percent_of_path;
+    result["scale_error_percent"] = summary.scale_error_percent;
+    result["gt_path_length_m"] = summary.gt_path_length_m;
+  }
+  run["result"] = result;
+  nlohmann::ordered_json timing;
+  timing["note"] = "wall-clock, not deterministic; seconds per frame, means over the run";
+  timing["threads"] = threads;
+  timing["seconds_total"] = summary.seconds;
+  timing["frames_per_second"] = summary.frames_per_second;
+  const double n = std::max(1, summary.frames);
+  timing["frontend_s"] = totals.frontend / n;
+  timing["initializer_s"] = totals.initializer / n;
+  timing["pnp_s"] = totals.pnp / n;
+  timing["ba_s"] = totals.ba / n;
+  timing["marginalization_s"] = totals.marginalization / n;
+  timing["scale_correction_s"] = totals.scale / n;
+  timing["backend_s"] = totals.backend / n;
+  run["timing"] = timing;
+  WriteFileAtomic(dir / "run.json", io_internal::PrettyJson(run));
+
+  if (std::filesystem::exists(absolute_out, ec)) std::filesystem::remove_all(absolute_out, ec);
+  std::filesystem::rename(dir, absolute_out, ec);
+  if (ec)
+    MCVO_THROW_INPUT(absolute_out.string(), ": cannot move the finished run into place: ", ec.message());
+  staging.Release();
+
+  MCVO_LOG(kInfo, "run: ", summary.frames, " frames (", summary.posed_frames, " posed, ", summary.keyframes,
+           " keyframes, ", summary.segments, " segment(s)) in ", FormatFixed(summary.seconds, 2), " s (",
+           FormatFixed(summary.frames_per_second, 2), " fps)");
+  if (summary.evaluated) {
+    MCVO_LOG(kInfo, "run: ATE rmse ", FormatFixed(summary.ate_rmse_m, 3), " m (",
+             FormatFixed(summary.ate_percent_of_path, 3), " % of ", FormatFixed(summary.gt_path_length_m, 1),
+             " m), scale error ", FormatFixed(summary.scale_error_percent, 3), " % (",
+             EnumToName(kAlignmentModeNames, options.eval.align), " alignment)");
+  }
+  MCVO_LOG(kInfo, "run: wrote ", absolute_out.string());
+  return summary;
+}
+
+}  // namespace mcvo

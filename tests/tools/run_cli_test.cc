@@ -1,0 +1,175 @@
+// `mcvo run` as a user runs it, on a short synthetic sequence of the
+// KITTI-360 rig (4 cameras: a stereo pair and two MEI fisheyes) with one
+// fisheye blacked out for 10 frames: the run completes in one segment, is
+// accurate, writes every documented output, gives byte-identical outputs at
+// 1 and 2 threads and when replayed from a track file, and fails cleanly on
+// bad input.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "mcvo/io/trajectory_io.h"
+#include "mcvo/util/file.h"
+#include "tools/run_mcvo.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using mcvo::test::Quote;
+using mcvo::test::RunMcvo;
+
+fs::path Root() {
+  return fs::path(::testing::TempDir()) / ("mcvo_run_cli_test_" + std::to_string(::getpid()));
+}
+
+constexpr int kFrames = 60;
+
+// Rendered once per process (ctest runs each test as its own process).
+const fs::path& Dataset() {
+  static const fs::path dir = [] {
+    const fs::path seq = Root() / "seq";
+    fs::remove_all(Root());
+    fs::create_directories(Root());
+    const auto r =
+        RunMcvo("synth --preset kitti360 --frames " + std::to_string(kFrames) +
+                " --image-scale 0.5 --samples 1 --blackout image_03:20:10 --out " + Quote(seq.string()));
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return seq;
+  }();
+  return dir;
+}
+
+std::string Config() { return Quote(std::string(MCVO_SOURCE_DIR) + "/config/kitti360_4cam.json"); }
+
+nlohmann::json ReadJson(const fs::path& path) { return nlohmann::json::parse(mcvo::ReadFileToString(path)); }
+
+// Column `name` of a CSV file, one string per data row.
+std::vector<std::string> CsvColumn(const fs::path& path, const std::string& name) {
+  std::istringstream in(mcvo::ReadFileToString(path));
+  std::string line;
+  std::getline(in, line);
+  int column = -1, k = 0;
+  std::istringstream header(line);
+  for (std::string field; std::getline(header, field, ','); ++k) {
+    if (field == name) column = k;
+  }
+  std::vector<std::string> out;
+  if (column < 0) return out;
+  while (std::getline(in, line)) {
+    std::istringstream row(line);
+    std::string field;
+    for (int i = 0; i <= column && std::getline(row, field, ','); ++i) {
+    }
+    out.push_back(field);
+  }
+  return out;
+}
+
+TEST(RunCli, CompletesAccuratelyAndIsDeterministic) {
+  const fs::path out1 = Root() / "run_t1", out2 = Root() / "run_t2", replay = Root() / "replay";
+  auto r = RunMcvo("run --dataset " + Quote(Dataset().string()) + " --config " + Config() +
+                   " --threads 1 --out " + Quote(out1.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = RunMcvo("run --dataset " + Quote(Dataset().string()) + " --config " + Config() + " --threads 2 --out " +
+              Quote(out2.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+
+  for (const char* file : {"trajectory.tum", "trajectory_kitti.txt", "trajectory_euroc.csv", "keyframes.tum",
+                           "scale_log.csv", "frame_stats.csv", "timing.csv", "run.json", "eval/eval.json"}) {
+    EXPECT_TRUE(fs::is_regular_file(out1 / file)) << file;
+  }
+  EXPECT_FALSE(fs::exists(Root() / ("run_t1.tmp-" + std::to_string(::getpid()))));
+
+  // Identical at 1 and 2 threads: run.json lists every output's SHA-256.
+  const nlohmann::json run1 = ReadJson(out1 / "run.json"), run2 = ReadJson(out2 / "run.json");
+  nlohmann::json hashes1 = run1["outputs_sha256"], hashes2 = run2["outputs_sha256"];
+  ASSERT_TRUE(hashes1.contains("trajectory.tum"));
+  hashes1.erase("timing.csv");
+  hashes2.erase("timing.csv");
+  EXPECT_EQ(hashes1, hashes2);
+  EXPECT_EQ(run1["config"], run2["config"]);
+  EXPECT_EQ(run1["inputs"], run2["inputs"]);
+
+  // The blacked-out fisheye does not break tracking: one segment, every
+  // frame after initialisation posed.
+  const auto segments = CsvColumn(out1 / "frame_stats.csv", "segment");
+  const auto has_pose = CsvColumn(out1 / "frame_stats.csv", "has_pose");
+  ASSERT_EQ(static_cast<int>(segments.size()), kFrames);
+  int first_posed = -1;
+  for (int f = 0; f < kFrames; ++f) {
+    EXPECT_EQ(segments[f], "0") << f;
+    if (has_pose[f] == "1" && first_posed < 0) first_posed = f;
+    if (first_posed >= 0) {
+      EXPECT_EQ(has_pose[f], "1") << f;
+    }
+  }
+  EXPECT_GE(first_posed, 0);
+  EXPECT_LE(first_posed, 20);  // the stereo pair gives the scale on the straight start
+
+  // Accuracy (SE3 alignment, no scale fitted), with bounds loose enough for
+  // a 50 m run yet tight enough to catch a broken pipeline (a wrong scale or
+  // a lost track gives metres).
+  const nlohmann::json eval = ReadJson(out1 / "eval" / "eval.json");
+  const double ate = eval["ate"]["translation_m"]["rmse"].get<double>();
+  const double path = eval["rpe"]["gt_path_length_m"].get<double>();
+  const double scale_error = eval["scale"]["scale_error_percent"].get<double>();
+  std::printf("ATE %.3f m over %.1f m, scale error %.2f %%\n", ate, path, scale_error);
+  EXPECT_GT(path, 30.0);
+  EXPECT_LT(ate, 0.01 * path);
+  EXPECT_LT(scale_error, 3.0);
+  int init = 0;
+  for (const auto& event : CsvColumn(out1 / "scale_log.csv", "event")) init += event == "init" ? 1 : 0;
+  EXPECT_EQ(init, 1);
+
+  // Replay from a track file: the same trajectory, byte for byte.
+  const fs::path tracks = Root() / "tracks.bin";
+  r = RunMcvo("track --dataset " + Quote(Dataset().string()) + " --config " + Config() + " --out " +
+              Quote(tracks.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = RunMcvo("run --dataset " + Quote(Dataset().string()) + " --config " + Config() + " --tracks " +
+              Quote(tracks.string()) + " --out " + Quote(replay.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(mcvo::ReadFileToString(replay / "trajectory.tum"),
+            mcvo::ReadFileToString(out1 / "trajectory.tum"));
+  EXPECT_EQ(mcvo::ReadFileToString(replay / "scale_log.csv"), mcvo::ReadFileToString(out1 / "scale_log.csv"));
+}
+
+TEST(RunCli, BadInputFailsCleanlyWithoutOutput) {
+  const fs::path& dataset = Dataset();  // first: it empties Root()
+  const fs::path out = Root() / "bad";
+  // A dataset that is not there: exit 3, the path named, no output folder.
+  auto r = RunMcvo("run --dataset " + Quote((Root() / "nothing").string()) + " --out " + Quote(out.string()));
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("nothing"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+  // A config with an unknown key: exit 3, file and key named.
+  const fs::path config = Root() / "bad_config.json";
+  mcvo::WriteFileAtomic(config, "{\"backend\": {\"window_sise\": 10}}");
+  r = RunMcvo("run --dataset " + Quote(dataset.string()) + " --config " + Quote(config.string()) + " --out " +
+              Quote(out.string()));
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("window_sise"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+  // A track file that is not a track file.
+  const fs::path tracks = Root() / "not_tracks.bin";
+  mcvo::WriteFileAtomic(tracks, "garbage");
+  r = RunMcvo("run --dataset " + Quote(dataset.string()) + " --tracks " + Quote(tracks.string()) + " --out " +
+              Quote(out.string()));
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("not_tracks.bin"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));
+  // A non-empty output folder is not replaced without --force.
+  fs::create_directories(out);
+  mcvo::WriteFileAtomic(out / "keep.txt", "x");
+  r = RunMcvo("run --dataset " + Quote(dataset.string()) + " --frames 2 --out " + Quote(out.string()));
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_TRUE(fs::exists(out / "keep.txt"));
+}
+
+}  // namespace
