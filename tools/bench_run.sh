@@ -16,7 +16,8 @@
 # Accuracy: `mcvo eval` inside `mcvo run`, SE3 alignment (no scale fitted):
 # ATE rmse as % of the ground-truth path over the posed frames, and the scale
 # error 100 |1/s - 1| of the Sim3 fit. Frames/s: wall clock of the whole run
-# (decoding, frontend and back end pipelined on 2 threads), NOT deterministic.
+# (decoding, frontend and back end pipelined on 2 threads), NOT deterministic:
+# run on an otherwise idle machine. REUSE=1 keeps runs whose run.json exists.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 MCVO=${1:-build/mcvo}
@@ -35,6 +36,10 @@ fi
 run() {  # name, config, frames, extra flags...
   local name=$1 config=$2 frames=$3
   shift 3
+  if [[ "${REUSE:-0}" == 1 && -f "$SCRATCH/$name/run.json" ]]; then
+    echo "run $name: reusing $SCRATCH/$name" >&2
+    return
+  fi
   echo "run $name ..." >&2
   "$MCVO" run --dataset "$SEQ" --config "$config" --frames "$frames" --threads "$THREADS" \
     --out "$SCRATCH/$name" --force "$@" >&2
