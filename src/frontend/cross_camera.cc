@@ -125,7 +125,7 @@ bool CrossCameraMatcher::UsableInB(const cv::Point2f& p) const {
 std::optional<Eigen::Vector2d> CrossCameraMatcher::Warp(const Eigen::Vector2d& pixel_a) const {
   const std::optional<Eigen::Vector3d> bearing = a_.Unproject(pixel_a);
   if (!bearing) return std::nullopt;
-  const std::optional<Eigen::Vector2d> q =
+  std::optional<Eigen::Vector2d> q =
       b_.Project(b_from_a_ * (options_.cross_camera.init_distance_m * bearing->normalized()));
   if (!q || !b_.IsInImage(*q)) return std::nullopt;
   return q;

@@ -36,7 +36,7 @@ constexpr int kMaxDescriptorSize = 4096;
 // Bytes of the fixed part of a camera record (docs/track-format.md).
 constexpr size_t kCameraStatsBytes = 6 * 4 + 2 * 8 + 1;
 constexpr size_t kFeatureFixedBytes = 8 + 3 * 4 + 4;
-constexpr size_t kPairStatsBytes = 10 * 4;
+constexpr size_t kPairStatsBytes = size_t{10} * 4;
 constexpr size_t kMatchBytes = 1 + 8 + 1 + 2 * 4;
 
 size_t DescriptorElementBytes(int type) { return type == CV_32F ? 4 : 1; }

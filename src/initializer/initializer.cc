@@ -329,6 +329,7 @@ struct Initializer::Impl {
       const std::vector<Match>& matches = per_camera[k];
       if (matches.empty()) continue;
       std::vector<double> ratios;
+      ratios.reserve(matches.size());
       for (const Match& m : matches) ratios.push_back(m.ratio);
       const double median = Median(ratios);
       std::vector<ScaleMeasurement> candidates;

@@ -161,7 +161,7 @@ class RigWindowBa {
       Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus;
       manifold.PlusJacobian(state.poses[t].data(), plus.data());
       const Eigen::Matrix<double, 2, 6> j_pose = j_pose_ambient * plus;
-      reduced.block<6, 6>(6 * s, 6 * s) += j_pose.transpose() * j_pose;
+      reduced.block<6, 6>(Eigen::Index{6} * s, Eigen::Index{6} * s) += j_pose.transpose() * j_pose;
       auto it = pb.b.find(s);
       if (it == pb.b.end()) it = pb.b.emplace(s, Eigen::Matrix<double, 6, 3>::Zero()).first;
       it->second += j_pose.transpose() * j_point;
@@ -172,7 +172,7 @@ class RigWindowBa {
       const Eigen::Matrix3d c_inv = lu.inverse();
       for (const auto& [s1, b1] : pb.b) {
         for (const auto& [s2, b2] : pb.b) {
-          reduced.block<6, 6>(6 * s1, 6 * s2) -= b1 * c_inv * b2.transpose();
+          reduced.block<6, 6>(Eigen::Index{6} * s1, Eigen::Index{6} * s2) -= b1 * c_inv * b2.transpose();
         }
       }
     }
