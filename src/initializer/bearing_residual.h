@@ -6,6 +6,7 @@
 #include <limits>
 #include <optional>
 
+#include <ceres/ceres.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -106,5 +107,25 @@ struct TangentBearingResidual {
   Eigen::Matrix3d cam_rotation;
   Eigen::Vector3d cam_translation;
 };
+
+// Solver options of the initializer's small bundle adjustments: Levenberg-
+// Marquardt on a dense Schur complement, single-threaded, stopped by the
+// iteration count only (no clock), so results are the same on any machine.
+inline ceres::Solver::Options DeterministicBaOptions(int max_iterations) {
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_SCHUR;
+  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  // Some damping always: weakly triangulated points (angles near the minimum)
+  // make the undamped reduced system lose positive definiteness numerically.
+  options.max_trust_region_radius = 1e6;
+  options.max_num_iterations = max_iterations;
+  options.max_solver_time_in_seconds = 1e9;  // iteration count only: determinism
+  options.num_threads = 1;
+  options.function_tolerance = 1e-10;
+  options.gradient_tolerance = 1e-14;
+  options.parameter_tolerance = 1e-10;
+  options.logging_type = ceres::SILENT;
+  return options;
+}
 
 }  // namespace mcvo::initializer_internal

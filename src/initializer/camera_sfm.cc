@@ -367,19 +367,8 @@ class WindowSfm {
         problem.SetManifold(block, &pose_manifold);
       }
     }
-    ceres::Solver::Options solver_options;
-    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
-    solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-    // Some damping always: weakly triangulated points (angles near the minimum)
-    // make the undamped reduced system lose positive definiteness numerically.
-    solver_options.max_trust_region_radius = 1e6;
-    solver_options.max_num_iterations = options_.max_ba_iterations;
-    solver_options.max_solver_time_in_seconds = 1e9;  // iteration count only: determinism
-    solver_options.num_threads = 1;
-    solver_options.function_tolerance = 1e-10;
-    solver_options.gradient_tolerance = 1e-14;
-    solver_options.parameter_tolerance = 1e-10;
-    solver_options.logging_type = ceres::SILENT;
+    const ceres::Solver::Options solver_options =
+        initializer_internal::DeterministicBaOptions(options_.max_ba_iterations);
     ceres::Solver::Summary summary;
     if (options_.max_ba_iterations > 0 && problem.NumResidualBlocks() > 0) {
       ceres::Solve(solver_options, &problem, &summary);
