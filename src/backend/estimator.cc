@@ -466,19 +466,11 @@ struct Estimator::Impl {
         ++it;
         continue;
       }
-      bool anchor_bad = false;
+      // The anchor observation defines the landmark and always stays.
       std::vector<Observation> kept;
       for (const Observation& ob : lm.observations) {
         const bool is_anchor = ob.frame == lm.anchor_frame && ob.camera == lm.anchor_camera;
-        if (is_anchor) {
-          kept.push_back(ob);
-          continue;
-        }
-        if (ObservationErrorPx(lm, ob) <= options.outlier_threshold_px) {
-          kept.push_back(ob);
-        } else {
-          anchor_bad = anchor_bad || false;
-        }
+        if (is_anchor || ObservationErrorPx(lm, ob) <= options.outlier_threshold_px) kept.push_back(ob);
       }
       lm.observations = std::move(kept);
       if (lm.observations.size() < 2) lm.triangulated = false;
