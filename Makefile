@@ -17,7 +17,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 DEB_PACKAGES := build-essential cmake pkg-config git ca-certificates \
   libeigen3-dev libceres-dev libsuitesparse-dev libssl-dev libgoogle-glog-dev libgflags-dev \
   libopencv-dev libopencv-contrib-dev nlohmann-json3-dev libyaml-cpp-dev \
-  libgtest-dev libgmock-dev libopengv-dev colmap \
+  libgtest-dev libgmock-dev libopengv-dev colmap chromium \
   clang-format clang-tidy
 
 SOURCES := $(shell find src include tools tests -name '*.cc' -o -name '*.h' 2>/dev/null)

@@ -1,6 +1,7 @@
 // `mcvo eval`: scores an estimated trajectory against ground truth (ATE, RPE,
 // scale, start-end discrepancy). Definitions in docs/eval.md.
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <optional>
 #include <string>
@@ -9,6 +10,7 @@
 #include "command.h"
 #include "mcvo/eval/evaluate.h"
 #include "mcvo/eval/report.h"
+#include "mcvo/eval/report_html.h"
 #include "mcvo/io/trajectory_io.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
@@ -66,7 +68,8 @@ int RunEval(int argc, const char* const* argv) {
       "RPE lengths in % of the ground-truth path, when --rpe-lengths is not given [default: 10,20,30,40,50]");
   args.AddString("gt-times", &gt_times, "FILE", "times file for a KITTI ground truth (one time per line)");
   args.AddString("est-times", &est_times, "FILE", "times file for a KITTI estimate");
-  args.AddString("out", &out_dir, "DIR", "write eval.json, eval.md, ate_errors.csv, est_aligned.tum there");
+  args.AddString("out", &out_dir, "DIR",
+                 "write eval.json, eval.md, ate_errors.csv, est_aligned.tum, report.html, report.md there");
   args.AddEpilog(
       "Prints a Markdown summary on stdout. Definitions and every JSON key: docs/eval.md.\n"
       "example: mcvo eval --gt poses.txt --est est.txt --rpe-lengths 100,200,300,400,500,600,700,800 --out "
@@ -101,17 +104,35 @@ int RunEval(int argc, const char* const* argv) {
   const std::optional<TrajectoryFormat> gt_format_given = ParseFormatOption("gt-format", gt_format);
   const std::optional<TrajectoryFormat> est_format_given = ParseFormatOption("est-format", est_format);
 
-  Trajectory gt =
-      ReadTrajectory(gt_path, gt_format_given ? *gt_format_given : DetectTrajectoryFormat(gt_path));
-  Trajectory est =
-      ReadTrajectory(est_path, est_format_given ? *est_format_given : DetectTrajectoryFormat(est_path));
+  const TrajectoryFormat gt_file_format =
+      gt_format_given ? *gt_format_given : DetectTrajectoryFormat(gt_path);
+  const TrajectoryFormat est_file_format =
+      est_format_given ? *est_format_given : DetectTrajectoryFormat(est_path);
+  Trajectory gt = ReadTrajectory(gt_path, gt_file_format);
+  Trajectory est = ReadTrajectory(est_path, est_file_format);
   if (!gt_times.empty()) ApplyTimesFile(gt_times, &gt);
   if (!est_times.empty()) ApplyTimesFile(est_times, &est);
   options.association.mode = association_mode.value_or(gt.has_time && est.has_time ? AssociationMode::kTime
                                                                                    : AssociationMode::kIndex);
 
   const EvalResult result = EvaluateTrajectory(gt, est, options, gt_path, est_path);
-  if (!out_dir.empty()) WriteEvalOutputs(out_dir, result);
+  if (!out_dir.empty()) {
+    WriteEvalOutputs(out_dir, result);
+    // report.html / report.md: the same result with plots; the eval options
+    // come from the result itself, the files and formats from here.
+    ReportInputs report;
+    report.title = StrCat(std::filesystem::path(est_path).filename().string(), " vs ",
+                          std::filesystem::path(gt_path).filename().string());
+    report.eval = &result;
+    report.ground_truth = gt;
+    report.settings["gt"] = gt_path;
+    report.settings["gt_format"] = std::string(TrajectoryFormatName(gt_file_format));
+    if (!gt_times.empty()) report.settings["gt_times"] = gt_times;
+    report.settings["est"] = est_path;
+    report.settings["est_format"] = std::string(TrajectoryFormatName(est_file_format));
+    if (!est_times.empty()) report.settings["est_times"] = est_times;
+    WriteReports(out_dir, report);
+  }
   std::cout << EvalResultToMarkdown(result);
   return kExitOk;
 }

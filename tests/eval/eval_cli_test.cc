@@ -82,12 +82,23 @@ TEST(EvalCli, TumEndToEnd) {
   EXPECT_TRUE(fs::exists(dir / "out" / "eval.md"));
   EXPECT_TRUE(fs::exists(dir / "out" / "ate_errors.csv"));
   EXPECT_TRUE(fs::exists(dir / "out" / "est_aligned.tum"));
+  // The reports: titled by the file names, every plot of an evaluation.
+  const std::string html = ReadFileToString(dir / "out" / "report.html");
+  EXPECT_NE(html.find("<title>est.tum vs gt.tum</title>"), std::string::npos);
+  for (const char* id : {"plot-trajectory", "plot-translation-error", "plot-rotation-error",
+                         "plot-rpe-translation", "plot-rpe-rotation"}) {
+    EXPECT_NE(html.find(std::string("<svg id=\"") + id + "\""), std::string::npos) << id;
+  }
+  const std::string md = ReadFileToString(dir / "out" / "report.md");
+  EXPECT_EQ(md.rfind("# est.tum vs gt.tum\n", 0), 0u) << md.substr(0, 200);
+  EXPECT_NE(md.find("| ATE RMSE | 0.0000 m |"), std::string::npos);
   // stdout carries the same Markdown as eval.md.
   EXPECT_EQ(ReadFileToString(dir / "stdout.txt"), ReadFileToString(dir / "out" / "eval.md"));
 
   // A second run gives byte-identical files.
   ASSERT_EQ(RunMcvo(dir, "eval " + files + " --out \"" + (dir / "out2").string() + "\""), 0);
-  for (const char* name : {"eval.json", "eval.md", "ate_errors.csv", "est_aligned.tum"}) {
+  for (const char* name :
+       {"eval.json", "eval.md", "ate_errors.csv", "est_aligned.tum", "report.html", "report.md"}) {
     EXPECT_EQ(ReadFileToString(dir / "out" / name), ReadFileToString(dir / "out2" / name)) << name;
   }
 
@@ -116,6 +127,11 @@ TEST(EvalCli, KittiDefaultsToIndexAssociation) {
   EXPECT_EQ(j["rpe"]["lengths"].size(), 2u);
   EXPECT_EQ(j["options"]["rpe_lengths_m"][1], 10.0);
   EXPECT_TRUE(fs::exists(dir / "out" / "est_aligned.kitti"));
+  // KITTI files have no time: the report plots by distance all the same.
+  const std::string html = ReadFileToString(dir / "out" / "report.html");
+  EXPECT_NE(html.find("<svg id=\"plot-translation-error\""), std::string::npos);
+  EXPECT_NE(html.find("kitti"), std::string::npos);  // the settings name the format
+  EXPECT_TRUE(fs::exists(dir / "out" / "report.md"));
 }
 
 TEST(EvalCli, ExitCodes) {
