@@ -20,6 +20,10 @@ void BackendOptions::Check() const {
   CheckAtLeast("/backend/min_pnp_inliers", min_pnp_inliers, 6);
   CheckAtLeast("/backend/scale_correction_period", scale_correction_period, 0);
   CheckAtLeast("/backend/scale_correction_min_change", scale_correction_min_change, 0.0);
+  CheckAtLeast("/backend/scale_drift_per_100m", scale_drift_per_100m, 0.0);
+  CheckPositive("/backend/scale_correction_max_sigma", scale_correction_max_sigma);
+  CheckAtLeast("/backend/scale_correction_sigma_factor", scale_correction_sigma_factor, 1.0);
+  CheckAtLeast("/backend/scale_correction_min_rotation_deg", scale_correction_min_rotation_deg, 0.0);
 }
 
 }  // namespace mcvo

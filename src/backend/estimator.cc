@@ -15,8 +15,7 @@
 #include "mcvo/backend/factors.h"
 #include "mcvo/backend/marginalization.h"
 #include "mcvo/backend/rig_pnp.h"
-#include "mcvo/initializer/camera_sfm.h"
-#include "mcvo/initializer/rig_scale.h"
+#include "mcvo/initializer/rig_window_ba.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/strings.h"
 
@@ -31,10 +30,13 @@ constexpr double kMinTriangulationAngleRad = 0.5 * kDegToRad;
 // used (behind the camera, at infinity, or diverged).
 constexpr double kMinLandmarkDistanceM = 0.1;
 constexpr double kMaxLandmarkDistanceM = 1000.0;
-// Scale correction runs only over windows that rotate at least this much,
-// and applies a result only when each camera's scale is known this well.
-constexpr double kMinCorrectionRotationDeg = 10.0;
-constexpr double kMaxCorrectionScaleSigma = 0.02;
+// Scale correction: iterations of its rig BA; the window must travel at
+// least this far; a measurement this many sigmas from the current scale is
+// an outlier; a camera's own ratio needs this many landmarks.
+constexpr int kScaleCorrectionIterations = 20;
+constexpr double kMinCorrectionTravelM = 2.0;
+constexpr double kMaxInnovationSigmas = 4.0;
+constexpr size_t kMinCameraDepthRatios = 10;
 
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
@@ -114,11 +116,16 @@ struct Estimator::Impl {
   std::map<uint64_t, Landmark> landmarks;  // by feature id (ordered: deterministic)
   std::unique_ptr<MarginalizationPrior> prior;
   int solves_since_correction = 0;
+  // Relative variance of the current scale (log scale) and where it was last
+  // grown (see GrowScaleVariance).
+  double scale_variance = 0.0;
+  std::optional<Eigen::Vector3d> scale_variance_at;
 
   // Last two poses (constant-velocity prediction; placing a new segment).
   std::optional<Rigid3d> last_pose, previous_pose;
 
   std::vector<KeyframeEstimate> finished_keyframes;
+  std::vector<MapLandmark> finished_landmarks;
   std::vector<ScaleLogEntry> scale_log;
 
   // ---------------------------------------------------------------- helpers
@@ -149,6 +156,30 @@ struct Estimator::Impl {
   }
   void ClearWindow() {
     while (!window.empty()) PopFront();
+  }
+
+  // A keyframe leaving the estimator, with its observations of the
+  // landmarks the BA uses.
+  KeyframeEstimate FinishedKeyframe(const Frame* frame) const {
+    KeyframeEstimate out{frame->frame_index, frame->t_ns, frame->segment, frame->WorldFromRig(), {}};
+    for (int c = 0; c < static_cast<int>(frame->obs.cameras.size()); ++c) {
+      for (const FeatureObservation& f : frame->obs.cameras[c]) {
+        auto it = landmarks.find(f.id);
+        if (it == landmarks.end() || !UsableInBa(it->second)) continue;
+        const bool observed =
+            std::any_of(it->second.observations.begin(), it->second.observations.end(),
+                        [&](const Observation& ob) { return ob.frame == frame && ob.camera == c; });
+        if (observed) out.observations.push_back({c, static_cast<int64_t>(f.id), f.pixel});
+      }
+    }
+    return out;
+  }
+
+  // Every triangulated landmark leaves (new segment, end of run).
+  void FinishAllLandmarks() {
+    for (const auto& [id, lm] : landmarks) {
+      if (lm.triangulated) finished_landmarks.push_back({static_cast<int64_t>(id), LandmarkInWorld(lm)});
+    }
   }
 
   Rigid3d WorldFromCam(const Frame& frame, int camera) const {
@@ -283,6 +314,7 @@ struct Estimator::Impl {
                                            [&](const Observation& ob) { return ob.frame == frame; }),
                             lm.observations.end());
       if (lm.observations.empty()) {
+        if (point) finished_landmarks.push_back({static_cast<int64_t>(it->first), *point});
         it = landmarks.erase(it);
         continue;
       }
@@ -510,8 +542,7 @@ struct Estimator::Impl {
     if (!drop.empty() || prior) next_prior = marginalizer.Marginalize(drop);
     prior = std::move(next_prior);
 
-    finished_keyframes.push_back(
-        {oldest->frame_index, oldest->t_ns, oldest->segment, oldest->WorldFromRig()});
+    finished_keyframes.push_back(FinishedKeyframe(oldest));
     RemoveFrameObservations(oldest);
     PopFront();
     estimate->seconds_marginalization += Seconds(start);
@@ -578,96 +609,138 @@ struct Estimator::Impl {
     entry.event = "correction";
     const int n = rig.NumCameras();
     entry.camera_scales.assign(n, 1.0);
-    std::vector<const Frame*> keyframes;
-    for (auto& frame : window) {
-      if (frame->keyframe) keyframes.push_back(frame);
+    GrowScaleVariance();
+    auto log = [&](std::string note) {
+      entry.note = std::move(note);
+      entry.scale_sigma = std::sqrt(scale_variance);
+      scale_log.push_back(std::move(entry));
+      estimate->seconds_scale += Seconds(start);
+    };
+
+    // The window (keyframes and the newest frame), its landmarks in world
+    // coordinates, and their observations.
+    std::vector<const Frame*> frames(window.begin(), window.end());
+    std::map<const Frame*, int> frame_slot;
+    std::vector<Rigid3d> poses;
+    for (size_t t = 0; t < frames.size(); ++t) {
+      frame_slot[frames[t]] = static_cast<int>(t);
+      poses.push_back(frames[t]->WorldFromRig());
     }
-    const int num_frames = static_cast<int>(keyframes.size());
-    std::vector<CameraWindowTrack> tracks;
-    std::vector<int> track_camera;
-    std::vector<double> current_displacement;
-    if (num_frames >= 3) {
-      for (int c = 0; c < n; ++c) {
-        std::vector<WindowObservation> observations;
-        for (int t = 0; t < num_frames; ++t) {
-          for (const FeatureObservation& f : keyframes[t]->obs.cameras[c]) {
-            observations.push_back({t, f.id, f.bearing});
-          }
-        }
-        const CameraSfmResult sfm =
-            SolveCameraWindowSfm(num_frames, 0, num_frames - 1, observations, init_options.sfm);
-        if (!sfm.ok) continue;
-        const Rigid3d rig_from_cam = cam_from_rig[c].Inverse();
-        CameraWindowTrack track;
-        track.cam_from_rig = cam_from_rig[c];
-        for (int t = 0; t < num_frames; ++t) {
-          track.rotation.push_back(
-              (rig_from_cam.rotation * sfm.anchor_from_cam[t].rotation).toRotationMatrix());
-          track.position_up_to_scale.push_back(rig_from_cam.rotation * sfm.anchor_from_cam[t].translation);
-        }
-        tracks.push_back(std::move(track));
-        track_camera.push_back(c);
-        current_displacement.push_back(
-            (WorldFromCam(*keyframes.back(), c).translation - WorldFromCam(*keyframes.front(), c).translation)
-                .norm());
+    std::map<uint64_t, Eigen::Vector3d> points;
+    std::vector<RigWindowObservation> observations;
+    for (const auto& [id, lm] : landmarks) {
+      if (!UsableInBa(lm)) continue;
+      points[id] = LandmarkInWorld(lm);
+      for (const Observation& ob : lm.observations) {
+        observations.push_back({frame_slot.at(ob.frame), ob.camera, id, ob.bearing});
       }
     }
-    if (tracks.size() < 2) {
-      entry.note = StrCat("not applied: ", tracks.size(), " camera(s) with a window SfM (need 2)");
-      scale_log.push_back(std::move(entry));
-      estimate->seconds_scale += Seconds(start);
-      return;
+    RigWindowBaOptions ba_options;
+    ba_options.focal_px = options.virtual_focal_px;
+    for (const Camera& camera : rig.cameras) ba_options.camera_focal_px.push_back(camera.MeanFocalLength());
+    ba_options.max_reprojection_px = options.outlier_threshold_px;
+    ba_options.max_iterations = kScaleCorrectionIterations;
+    const RigWindowBaResult ba = AdjustRigWindow(cam_from_rig, 0, poses, points, observations, ba_options);
+    if (!ba.ok) return log(StrCat("not applied: rig BA failed: ", ba.reason));
+    const double current_travel = (poses.back().translation - poses.front().translation).norm();
+    entry.rms_reprojection_px = ba.rms_reprojection_px;
+    if (!(current_travel > kMinCorrectionTravelM)) {
+      return log(StrCat("not applied: window travel ", FormatFixed(current_travel, 2), " m < ",
+                        FormatFixed(kMinCorrectionTravelM, 2), " m"));
     }
-    RigScaleOptions scale_options;
-    scale_options.min_singular_value_ratio = init_options.min_singular_value_ratio;
-    scale_options.max_rms_residual_m = init_options.max_rms_residual_m;
-    scale_options.max_relative_scale_sigma = kMaxCorrectionScaleSigma;
-    const RigScaleResult result = SolveRigScalesLinear(tracks, scale_options);
-    entry.rms_residual_m = result.rms_residual_m;
-    entry.singular_value_ratio = result.singular_value_ratio;
-    if (!result.observable) {
-      entry.note = StrCat("not applied: ", result.reason);
-      scale_log.push_back(std::move(entry));
-      estimate->seconds_scale += Seconds(start);
-      return;
+    const double ratio = ba.travel_m / current_travel;
+    const double sigma = options.scale_correction_sigma_factor * ba.travel_relative_sigma;
+    entry.measured_ratio = ratio;
+    entry.measured_sigma = sigma;
+    if (!(std::isfinite(ratio) && ratio > 0.0 && std::isfinite(sigma))) {
+      return log("not applied: non-finite rig BA travel");
     }
-    // Observable: this correction is done (applied or not); until then the
-    // next solves try again while the window turns.
+    if (sigma > options.scale_correction_max_sigma) {
+      return log(StrCat("not applied: measurement sigma ", FormatFixed(100.0 * sigma, 2), " % > ",
+                        FormatFixed(100.0 * options.scale_correction_max_sigma, 2), " %"));
+    }
+    // A measurement: this correction is done (applied or not); until then
+    // the next solves try again while the window turns.
     solves_since_correction = 0;
-    // Camera c's metric displacement over the window is s_c (|q_c(r)| = 1 by
-    // the SfM's normalisation); its ratio to the current estimate's.
-    std::vector<double> ratios(tracks.size());
-    bool any_change = false;
-    for (size_t k = 0; k < tracks.size(); ++k) {
-      const double metric = result.scales[k] * tracks[k].position_up_to_scale.back().norm();
-      ratios[k] = current_displacement[k] > 1e-6 ? metric / current_displacement[k] : 1.0;
-      if (!(ratios[k] > 0.5 && ratios[k] < 2.0)) {
-        entry.note = StrCat("not applied: camera ", rig.cameras[track_camera[k]].name, " ratio ",
-                            FormatDouble(ratios[k]), " outside [0.5, 2]");
-        scale_log.push_back(std::move(entry));
-        estimate->seconds_scale += Seconds(start);
-        return;
+    const double innovation = std::log(ratio);
+    const double innovation_sigma = std::sqrt(scale_variance + sigma * sigma);
+    if (std::abs(innovation) > kMaxInnovationSigmas * innovation_sigma) {
+      return log(StrCat("not applied: ratio ", FormatFixed(ratio, 4), " is ",
+                        FormatFixed(std::abs(innovation) / innovation_sigma, 1),
+                        " sigma from the current scale (outlier)"));
+    }
+    const double gain = scale_variance / (scale_variance + sigma * sigma);
+    const double k = std::exp(gain * innovation);
+    entry.gain = gain;
+    if (std::abs(k - 1.0) <= options.scale_correction_min_change) {
+      scale_variance *= 1.0 - gain;
+      return log(StrCat("not applied: fused change ", FormatFixed(100.0 * (k - 1.0), 3),
+                        " % below scale_correction_min_change"));
+    }
+    // Per camera: the median change of its landmarks' depths from their
+    // anchor camera in the rig BA, fused with the same gain.
+    std::vector<std::vector<double>> depth_ratios(n);
+    for (const auto& [id, lm] : landmarks) {
+      auto refined = ba.points.find(id);
+      if (!UsableInBa(lm) || refined == ba.points.end()) continue;
+      const Rigid3d anchor = WorldFromCam(*lm.anchor_frame, lm.anchor_camera);
+      // The anchor frame's refined pose: the BA moved it too.
+      const Rigid3d refined_anchor =
+          ba.world_from_rig[frame_slot.at(lm.anchor_frame)] * cam_from_rig[lm.anchor_camera].Inverse();
+      const double before = (anchor.Inverse() * LandmarkInWorld(lm)).norm();
+      const double after = (refined_anchor.Inverse() * refined->second).norm();
+      if (before > 0.0 && after > 0.0) depth_ratios[lm.camera].push_back(after / before);
+    }
+    std::vector<double> camera_k(n, k);
+    for (int c = 0; c < n; ++c) {
+      std::vector<double>& r = depth_ratios[c];
+      if (r.size() < kMinCameraDepthRatios) continue;
+      std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
+      const double median = r[r.size() / 2];
+      camera_k[c] = std::exp(gain * std::log(median));
+    }
+    // Apply: positions about the fixed keyframe, the prior's linearisation
+    // positions likewise, the last poses (constant-velocity prediction), and
+    // the landmark depths.
+    const Eigen::Vector3d origin = poses.front().translation;
+    auto rescale = [&](double* pose) {
+      for (int i = 0; i < 3; ++i) pose[i] = origin[i] + k * (pose[i] - origin[i]);
+    };
+    for (auto& frame : window) rescale(frame->pose.data());
+    if (prior) {
+      const std::vector<double*>& blocks = prior->kept_blocks();
+      for (size_t b = 0; b < blocks.size(); ++b) {
+        const bool is_pose = std::any_of(window.begin(), window.end(),
+                                         [&](const Frame* frame) { return frame->pose.data() == blocks[b]; });
+        if (!is_pose) continue;
+        std::vector<double> x0 = prior->x0(static_cast<int>(b));
+        rescale(x0.data());
+        prior->SetX0(static_cast<int>(b), x0);
       }
-      any_change = any_change || std::abs(ratios[k] - 1.0) > options.scale_correction_min_change;
     }
-    for (size_t k = 0; k < tracks.size(); ++k) entry.camera_scales[track_camera[k]] = ratios[k];
-    if (!any_change) {
-      entry.note = "not applied: every change below scale_correction_min_change";
-      scale_log.push_back(std::move(entry));
-      estimate->seconds_scale += Seconds(start);
-      return;
+    for (std::optional<Rigid3d>* pose : {&last_pose, &previous_pose}) {
+      if (*pose) (*pose)->translation = origin + k * ((*pose)->translation - origin);
     }
-    // Apply: the landmarks of camera c move along their anchor bearings by
-    // the camera's ratio (the paper's inverse-depth adjustment).
     for (auto& [id, lm] : landmarks) {
-      for (size_t k = 0; k < tracks.size(); ++k) {
-        if (lm.camera == track_camera[k] && lm.triangulated) lm.inverse_depth /= ratios[k];
-      }
+      if (lm.triangulated) lm.inverse_depth /= camera_k[lm.camera];
     }
+    scale_variance *= 1.0 - gain;
+    entry.applied_ratio = k;
+    entry.camera_scales = camera_k;
     entry.applied = true;
-    entry.note = "applied to landmark inverse depths";
-    scale_log.push_back(std::move(entry));
-    estimate->seconds_scale += Seconds(start);
+    log("applied to window positions, prior and landmark inverse depths");
+  }
+
+  // The current scale's variance grows as a random walk over the distance
+  // travelled since the last call.
+  void GrowScaleVariance() {
+    if (!last_pose) return;
+    if (scale_variance_at) {
+      const double travelled = (last_pose->translation - *scale_variance_at).norm();
+      const double per_metre = options.scale_drift_per_100m * options.scale_drift_per_100m / 100.0;
+      scale_variance += per_metre * travelled;
+    }
+    scale_variance_at = last_pose->translation;
   }
 
   // ---------------------------------------------------------------- initialisation
@@ -695,8 +768,8 @@ struct Estimator::Impl {
       window.push_back(frame);
     }
     while (static_cast<int>(window.size()) > options.window_size) {
-      finished_keyframes.push_back(
-          {window.front()->frame_index, window.front()->t_ns, segment, window.front()->WorldFromRig()});
+      // No landmark exists yet: these keyframes leave without observations.
+      finished_keyframes.push_back(FinishedKeyframe(window.front()));
       PopFront();
     }
     // Landmarks: anchored in the first window frame that saw them; depth
@@ -743,6 +816,12 @@ struct Estimator::Impl {
     entry.rms_residual_m = init.rig_scale.rms_residual_m;
     entry.singular_value_ratio = init.rig_scale.singular_value_ratio;
     entry.applied = true;
+    // The initialiser's scale std (its bound when it reported none).
+    const double init_sigma =
+        init.relative_scale_sigma > 0.0 ? init.relative_scale_sigma : init_options.max_relative_scale_sigma;
+    scale_variance = init_sigma * init_sigma;
+    scale_variance_at = last_pose->translation;
+    entry.scale_sigma = init_sigma;
     entry.note = StrCat("scale from ",
                         init.source == ScaleSource::kRigRotation   ? "rig rotation"
                         : init.source == ScaleSource::kCrossCamera ? "cross-camera baseline"
@@ -760,8 +839,9 @@ struct Estimator::Impl {
     initializer.Reset();
     init_buffer.clear();
     for (auto& frame : window) {
-      finished_keyframes.push_back({frame->frame_index, frame->t_ns, frame->segment, frame->WorldFromRig()});
+      if (frame->keyframe) finished_keyframes.push_back(FinishedKeyframe(frame));
     }
+    FinishAllLandmarks();
     ClearWindow();
     landmarks.clear();
     prior.reset();
@@ -883,7 +963,7 @@ struct Estimator::Impl {
     // Scale correction once due, in the first window that turns enough for
     // the rig constraint to hold the scale (on a straight it cannot).
     if (options.scale_correction_period > 0 && solves_since_correction >= options.scale_correction_period &&
-        WindowRotationDeg() >= kMinCorrectionRotationDeg) {
+        WindowRotationDeg() >= options.scale_correction_min_rotation_deg) {
       ScaleCorrection(*raw, estimate);
     }
 
@@ -908,9 +988,9 @@ struct Estimator::Impl {
     std::vector<KeyframeEstimate> out = std::move(finished_keyframes);
     finished_keyframes.clear();
     for (auto& frame : window) {
-      if (frame->keyframe)
-        out.push_back({frame->frame_index, frame->t_ns, frame->segment, frame->WorldFromRig()});
+      if (frame->keyframe) out.push_back(FinishedKeyframe(frame));
     }
+    FinishAllLandmarks();
     return out;
   }
 };
@@ -931,6 +1011,12 @@ std::vector<KeyframeEstimate> Estimator::TakeFinishedKeyframes() {
 std::vector<ScaleLogEntry> Estimator::TakeScaleLog() {
   std::vector<ScaleLogEntry> out = std::move(impl_->scale_log);
   impl_->scale_log.clear();
+  return out;
+}
+
+std::vector<MapLandmark> Estimator::TakeFinishedLandmarks() {
+  std::vector<MapLandmark> out = std::move(impl_->finished_landmarks);
+  impl_->finished_landmarks.clear();
   return out;
 }
 

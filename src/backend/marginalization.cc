@@ -375,4 +375,10 @@ bool MarginalizationPrior::Evaluate(double const* const* parameters, double* res
   return r.allFinite();
 }
 
+void MarginalizationPrior::SetX0(int block, const std::vector<double>& x0) {
+  MCVO_CHECK(block >= 0 && block < static_cast<int>(x0_.size()));
+  MCVO_CHECK(x0.size() == x0_[static_cast<size_t>(block)].size());
+  x0_[static_cast<size_t>(block)] = x0;
+}
+
 }  // namespace mcvo

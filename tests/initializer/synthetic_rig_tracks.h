@@ -104,6 +104,33 @@ inline std::vector<Rigid3d> DriveTrajectory(const DriveSpec& spec) {
   return world_from_rig;
 }
 
+// A drive of several legs: each leg drives `frames` frames turning at
+// `deg_per_frame` (0: straight), with DriveSpec's step, height and wobbles
+// (its turn fields are ignored). For routes with several corners.
+struct DriveLeg {
+  int frames = 0;
+  double deg_per_frame = 0.0;
+};
+inline std::vector<Rigid3d> LegsTrajectory(const DriveSpec& spec, const std::vector<DriveLeg>& legs) {
+  std::vector<double> heading{spec.start_heading_deg * kSynthDeg};
+  for (const DriveLeg& leg : legs) {
+    for (int k = 0; k < leg.frames; ++k) heading.push_back(heading.back() + leg.deg_per_frame * kSynthDeg);
+  }
+  std::vector<Rigid3d> world_from_rig;
+  Eigen::Vector2d position = Eigen::Vector2d::Zero();
+  for (size_t k = 0; k + 1 < heading.size(); ++k) {
+    const double weave = spec.yaw_wobble_deg * kSynthDeg * std::sin(0.37 * static_cast<double>(k));
+    const double pitch =
+        spec.pitch_roll_wobble_deg * kSynthDeg * std::sin(0.9 * static_cast<double>(k) + 0.3);
+    const double roll = spec.pitch_roll_wobble_deg * kSynthDeg * std::cos(0.6 * static_cast<double>(k));
+    world_from_rig.emplace_back(WorldFromRigRotation(heading[k] + weave, pitch, roll),
+                                Eigen::Vector3d(position.x(), position.y(), spec.height_m));
+    const double chord_heading = 0.5 * (heading[k] + heading[k + 1]);
+    position += spec.step_m * Eigen::Vector2d(std::cos(chord_heading), std::sin(chord_heading));
+  }
+  return world_from_rig;
+}
+
 // Pure translation along world x.
 inline std::vector<Rigid3d> StraightTrajectory(int num_frames, double step_m = 0.8) {
   DriveSpec spec;

@@ -34,7 +34,19 @@ struct BackendOptions {
   int min_pnp_inliers = 12;
   int scale_correction_period = 50;            // solves between scale corrections; 0: never
   double scale_correction_min_change = 0.002;  // relative change below which none is applied
-  bool refine_extrinsics = false;              // camera 0's extrinsic stays fixed (gauge)
+  // Scale corrections are fused with the current scale, weighted by their
+  // uncertainties (estimator.h): the current scale's relative std grows as
+  // a random walk of this std per 100 m travelled, and a measurement whose
+  // relative std exceeds scale_correction_max_sigma is not used.
+  double scale_drift_per_100m = 0.01;
+  double scale_correction_max_sigma = 0.05;
+  // The rig BA's covariance sees only the pixel noise it measures, not
+  // systematic tracking errors: its relative std is multiplied by this
+  // factor before the tests and the fusion.
+  double scale_correction_sigma_factor = 3.0;
+  double scale_correction_min_rotation_deg =
+      10.0;                        // windows turning less are not used (no overlap: no scale)
+  bool refine_extrinsics = false;  // camera 0's extrinsic stays fixed (gauge)
 
   // Throws InputError naming the field by its config path ("/backend/...").
   void Check() const;

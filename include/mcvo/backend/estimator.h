@@ -19,12 +19,24 @@
 //      with the landmarks anchored in it, which are re-anchored in the next
 //      frame that saw them; a non-keyframe is dropped when the next frame
 //      arrives;
-//   6. every scale_correction_period solves, scale correction (paper
-//      Sec. "Scale Correction"): each camera's monocular SfM over the window
-//      keyframes and the rig scale solve give each camera's metric
-//      displacement over the window; its ratio to the current estimate's is
-//      applied to that camera's landmark inverse depths (the state changes;
-//      the next solve propagates it to the poses). Every attempt is logged.
+//   6. every scale_correction_period solves, in a window that turns at
+//      least scale_correction_min_rotation_deg, scale correction (paper Sec.
+//      "Scale Correction"): the initialiser's metric rig window BA
+//      (initializer/rig_window_ba.h) re-estimates the window from its own
+//      observations only, without the marginalisation prior (which holds
+//      the scale the window had when it was marginalised), with the oldest
+//      keyframe fixed. Its travel over the current estimate's travel is a
+//      measurement of the scale error with a relative std from the BA's
+//      covariance. It is fused with the current scale (whose relative std
+//      starts at the initialiser's and grows by scale_drift_per_100m as a
+//      random walk over the distance travelled) by a scalar Kalman update in
+//      log scale, and the fused ratio k is applied to the state: window
+//      positions about the fixed keyframe, the prior's linearisation
+//      positions, and each camera's landmark inverse depths (divided by that
+//      camera's fused ratio, from the median change of its landmarks'
+//      depths in the rig BA: the paper's per-camera adjustment). The state
+//      changes; every attempt is logged with the measurement, its std, the
+//      gain and what was applied.
 // Tracking loss: a camera without image or features simply contributes
 // nothing. When the pose of a frame cannot be found (too few inliers over all
 // cameras), the estimator starts a new segment: it initialises again, and
@@ -41,6 +53,7 @@
 
 #include "mcvo/backend/backend_options.h"
 #include "mcvo/camera/camera.h"
+#include "mcvo/colmap/sparse_map.h"
 #include "mcvo/geometry/rigid3d.h"
 #include "mcvo/initializer/initializer.h"
 #include "mcvo/initializer/observations.h"
@@ -56,10 +69,23 @@ struct ScaleLogEntry {
   int frame_index = 0;
   int64_t t_ns = 0;
   int segment = 0;
-  std::string event;                  // "init", "correction", "reinit"
-  std::vector<double> camera_scales;  // per camera: init: SfM scales; correction: applied ratios (1: unused)
-  double rms_residual_m = 0.0;
-  double singular_value_ratio = 0.0;
+  std::string event;  // "init", "reinit", "lost", "correction"
+  // init / reinit: each camera's SfM scale (0: camera unused). correction:
+  // the ratio applied to each camera's landmark depths (1: none applied).
+  std::vector<double> camera_scales;
+  double rms_residual_m = 0.0;        // init: of the rig scale solve
+  double singular_value_ratio = 0.0;  // init: of the rig scale solve
+  // correction: the window's metric travel from the rig BA without the prior
+  // over the current estimate's (measured_ratio), its relative std, the gain
+  // it was fused with, and the ratio applied to the window (1: none).
+  double measured_ratio = 0.0;
+  double measured_sigma = 0.0;
+  double gain = 0.0;
+  double applied_ratio = 1.0;
+  double rms_reprojection_px = 0.0;  // correction: of the rig BA
+  // Relative std of the current scale after this event (init: the
+  // initialiser's; then grown by travel and shrunk by corrections).
+  double scale_sigma = 0.0;
   bool applied = false;
   std::string note;  // source of the scale, or why nothing was applied
 };
@@ -100,6 +126,10 @@ struct KeyframeEstimate {
   int64_t t_ns = 0;
   int segment = 0;
   Rigid3d world_from_rig;  // final: when it left the window (or at Finish)
+  // Its observations of landmarks the bundle adjustment used when it left
+  // the window (camera then feature order); the landmarks come from
+  // TakeFinishedLandmarks. For the sparse map (colmap/sparse_map.h).
+  std::vector<MapObservation> observations;
 };
 
 class Estimator {
@@ -117,7 +147,14 @@ class Estimator {
   std::vector<KeyframeEstimate> TakeFinishedKeyframes();
   // Scale log entries since the last call.
   std::vector<ScaleLogEntry> TakeScaleLog();
-  // Ends the run: the keyframes still in the window, oldest first.
+  // Triangulated landmarks that left the estimator since the last call
+  // (their last observing frame left the window, a new segment started, or
+  // Finish), with their final positions, in the order they left. A feature
+  // track whose landmark left and was created again appears again: the
+  // later entry is the newer estimate.
+  std::vector<MapLandmark> TakeFinishedLandmarks();
+  // Ends the run: the keyframes still in the window, oldest first; every
+  // remaining landmark goes to TakeFinishedLandmarks.
   std::vector<KeyframeEstimate> Finish();
 
  private:

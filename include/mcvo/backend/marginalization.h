@@ -96,6 +96,11 @@ class MarginalizationPrior : public ceres::CostFunction {
   const Eigen::MatrixXd& jacobian() const { return jacobian_; }
   const Eigen::VectorXd& residual0() const { return residual0_; }
   const std::vector<double>& x0(int block) const { return x0_[static_cast<size_t>(block)]; }
+  // Moves the linearisation point of a kept block (index into kept_blocks()).
+  // The scale correction uses it: when the window is rescaled about the
+  // gauge, the prior's positions are rescaled with it, so the prior keeps
+  // its shape information without pulling the window back to the old scale.
+  void SetX0(int block, const std::vector<double>& x0);
 
  private:
   friend class Marginalizer;
