@@ -40,7 +40,14 @@ else
   exit 1
 fi
 
+if command -v colmap >/dev/null; then
+  echo
+  echo "== colmap model_analyzer on the run's COLMAP model"
+  colmap model_analyzer --path "$OUT/run/colmap/sparse/0" 2>&1 | grep -E "Cameras|Images|Points|Observations|reprojection"
+fi
+
 echo
 echo "demo outputs: $OUT/kitti360 (synthetic sequence: rig.json, frames.csv, images/, groundtruth.tum)"
-echo "              $OUT/run (trajectory.tum, keyframes.tum, scale_log.csv, frame_stats.csv, run.json, eval/)"
+echo "              $OUT/run (trajectory.tum, keyframes.tum, scale_log.csv, frame_stats.csv, run.json, eval/,"
+echo "                report.html: open it in a browser, colmap/: the keyframes and landmarks as a COLMAP model)"
 echo "              $OUT/tracks.bin, $OUT/replay (the same run from the track file)"

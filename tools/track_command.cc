@@ -198,7 +198,11 @@ int RunTrack(int argc, const char* const* argv) {
                                  ? options.runtime.threads
                                  : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 
-  const DatasetIndex index = OpenDataset(MakeDatasetOptions(dataset));
+  // The config's camera selection applies unless --cameras overrides it (as
+  // in `mcvo run`, so a track file made with a preset replays with it).
+  DatasetOptions dataset_options = MakeDatasetOptions(dataset);
+  if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
+  const DatasetIndex index = OpenDataset(dataset_options);
   // Start-up: builds each camera's detector (model file and layout checked
   // here), before any image is decoded.
   MultiCameraTracker tracker(index.rig, index.masks, options.frontend, worker_threads);

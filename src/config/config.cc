@@ -118,6 +118,10 @@ void Visit(V& v, BackendOptions* o) {
   v.Field("min_pnp_inliers", &o->min_pnp_inliers);
   v.Field("scale_correction_period", &o->scale_correction_period);
   v.Field("scale_correction_min_change", &o->scale_correction_min_change);
+  v.Field("scale_drift_per_100m", &o->scale_drift_per_100m);
+  v.Field("scale_correction_max_sigma", &o->scale_correction_max_sigma);
+  v.Field("scale_correction_sigma_factor", &o->scale_correction_sigma_factor);
+  v.Field("scale_correction_min_rotation_deg", &o->scale_correction_min_rotation_deg);
   v.Field("refine_extrinsics", &o->refine_extrinsics);
 }
 
@@ -134,6 +138,26 @@ void Visit(V& v, LoopOptions* o) {
   v.Field("exclude_recent_keyframes", &o->exclude_recent_keyframes);
   v.Field("min_score", &o->min_score);
   v.Field("min_camera_fraction", &o->min_camera_fraction);
+}
+
+template <typename V>
+void Visit(V& v, OutputOptions* o) {
+  v.Field("report", &o->report);
+}
+
+template <typename V>
+void Visit(V& v, ColmapOutputOptions* o) {
+  v.Field("enabled", &o->enabled);
+  ColmapExportOptions& e = o->export_options;
+  v.Enum("image_mode", &e.image_mode, kColmapImageModeNames);
+  v.Enum("format", &e.format, kColmapModelFormatNames);
+  v.Field("write_rig_files", &e.write_rig_files);
+  v.Enum("fisheye_policy", &e.fisheye_policy, kColmapFisheyePolicyNames);
+  v.Field("fisheye_max_angle_deg", &e.fisheye_max_angle_deg);
+  v.Field("fit_grid", &e.fit_grid);
+  v.Field("undistort_fov_deg", &e.undistort_fov_deg);
+  v.Field("min_track_length", &e.min_track_length);
+  v.Field("sample_colors", &e.sample_colors);
 }
 
 template <typename V>
@@ -160,6 +184,8 @@ void Visit(V& v, PipelineOptions* o) {
   v.Section("initializer", &o->initializer);
   v.Section("backend", &o->backend);
   v.Section("loop", &o->loop);
+  v.Section("output", &o->output);
+  v.Section("colmap", &o->colmap);
   v.Section("runtime", &o->runtime);
   v.Section("eval", &o->eval);
 }

@@ -28,6 +28,16 @@ void LoopOptions::Check() const {
   CheckInRange("/loop/min_camera_fraction", min_camera_fraction, 0.0, 1.0);
 }
 
+void ColmapOutputOptions::Check() const {
+  export_options.Check();
+  if (enabled && export_options.fisheye_policy == ColmapFisheyePolicy::kUndistort &&
+      export_options.image_mode == ColmapImageMode::kNone) {
+    MCVO_THROW_INPUT(
+        "/colmap/fisheye_policy: \"undistort\" writes undistorted images and needs image_mode "
+        "\"link\" or \"copy\", got \"none\"");
+  }
+}
+
 void RuntimeOptions::Check() const { CheckAtLeast("/runtime/threads", threads, 0); }
 
 void PipelineOptions::Check() const {
@@ -53,6 +63,7 @@ void PipelineOptions::Check() const {
     MCVO_THROW_INPUT("/initializer/window_size: must be <= /backend/window_size (", backend.window_size,
                      "), got ", initializer.window_size);
   }
+  colmap.Check();
 }
 
 }  // namespace mcvo

@@ -10,14 +10,17 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 #include <utility>
 
 #include <nlohmann/json.hpp>
 
 #include "mcvo/backend/estimator.h"
+#include "mcvo/colmap/colmap_model.h"
 #include "mcvo/config/config.h"
 #include "mcvo/eval/report.h"
+#include "mcvo/eval/report_html.h"
 #include "mcvo/frontend/multi_camera_tracker.h"
 #include "mcvo/frontend/track_file.h"
 #include "mcvo/io/json_util.h"
@@ -149,7 +152,85 @@ void CheckOutputFolder(const std::filesystem::path& out_dir, bool force) {
   }
 }
 
+// The run's sparse map: keyframes in frame order with their images and the
+// observations of landmarks that have a final position and lie within
+// kMapMaxErrorFactor x the back end's outlier threshold of it, measured as
+// the back end does (the angle between the observed bearing and the
+// direction to the landmark, in pixels at the virtual focal length); the
+// landmarks they observe, in id order. The filter matters: an observation is
+// recorded when its keyframe leaves the window, and the landmark goes on
+// being refined after that (a track that slid onto another point is
+// re-triangulated from its later observations).
+constexpr double kMapMaxErrorFactor = 2.0;
+SparseMap BuildSparseMap(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
+                         const std::map<int64_t, Eigen::Vector3d>& landmarks, const BackendOptions& backend,
+                         int* dropped) {
+  const Rig& rig = index.rig;
+  const double max_angle_rad = kMapMaxErrorFactor * backend.outlier_threshold_px / backend.virtual_focal_px;
+  *dropped = 0;
+  SparseMap map;
+  std::set<int64_t> observed;
+  for (const KeyframeEstimate& kf : keyframes) {
+    MapKeyframe out;
+    out.frame_index = kf.frame_index;
+    out.t_ns = kf.t_ns;
+    out.segment = kf.segment;
+    out.world_from_rig = kf.world_from_rig;
+    if (kf.frame_index >= 0 && kf.frame_index < static_cast<int>(index.frames.size())) {
+      // Absolute: the dataset's paths include its root, which may be relative.
+      for (const std::filesystem::path& image : index.frames[static_cast<size_t>(kf.frame_index)].images) {
+        out.images.push_back(image.empty() ? image : std::filesystem::absolute(image).lexically_normal());
+      }
+    }
+    for (const MapObservation& ob : kf.observations) {
+      auto landmark = landmarks.find(ob.landmark_id);
+      if (landmark == landmarks.end()) continue;
+      const Camera& camera = rig.cameras[static_cast<size_t>(ob.camera)];
+      const Rigid3d cam_from_world = camera.cam_from_rig * kf.world_from_rig.Inverse();
+      const std::optional<Eigen::Vector3d> bearing = camera.Unproject(ob.pixel);
+      const Eigen::Vector3d direction = (cam_from_world * landmark->second).normalized();
+      const double angle =
+          bearing ? std::acos(std::clamp(bearing->normalized().dot(direction), -1.0, 1.0)) : M_PI;
+      if (!(angle <= max_angle_rad)) {
+        ++*dropped;
+        continue;
+      }
+      out.observations.push_back(ob);
+      observed.insert(ob.landmark_id);
+    }
+    map.keyframes.push_back(std::move(out));
+  }
+  std::stable_sort(map.keyframes.begin(), map.keyframes.end(),
+                   [](const MapKeyframe& a, const MapKeyframe& b) { return a.frame_index < b.frame_index; });
+  for (const auto& [id, position] : landmarks) {
+    if (observed.count(id) != 0) map.landmarks.push_back({id, position});
+  }
+  return map;
+}
+
 }  // namespace
+
+std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetIndex& index,
+                                                               const std::filesystem::path& tracks,
+                                                               int frames) {
+  std::vector<std::pair<std::string, std::string>> inputs;
+  inputs.emplace_back("rig_sha256", Sha256Hex(RigToJson(index.rig, index.root)));
+  if (!tracks.empty()) {
+    inputs.emplace_back("tracks_sha256", Sha256File(tracks));
+  } else {
+    // One hash over the per-image hashes, in frame and camera order.
+    Sha256 images;
+    const int n = std::min(frames, static_cast<int>(index.frames.size()));
+    for (int f = 0; f < n; ++f) {
+      for (const std::filesystem::path& path : index.frames[f].images) {
+        images.Update(path.empty() ? std::string("missing") : Sha256File(path));
+        images.Update("\n");
+      }
+    }
+    inputs.emplace_back("images_sha256", images.HexDigest());
+  }
+  return inputs;
+}
 
 RunSummary RunPipeline(const RunRequest& request) {
   const PipelineOptions& options = request.options;
@@ -252,6 +333,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   // Consumer: the estimator, in frame order.
   std::map<int, StampedPose> poses;  // frame index -> latest pose
   std::vector<KeyframeEstimate> keyframes;
+  std::map<int64_t, Eigen::Vector3d> landmarks;  // id -> latest final position
   std::vector<ScaleLogEntry> scale_log;
   std::string stats_csv =
       "frame,t_ns,state,segment,keyframe,has_pose,pnp_inliers,landmarks,ba_iterations,"
@@ -278,7 +360,8 @@ RunSummary RunPipeline(const RunRequest& request) {
       pose.world_from_body = update.world_from_rig;
       poses[update.frame_index] = pose;
     }
-    for (KeyframeEstimate& kf : estimator.TakeFinishedKeyframes()) keyframes.push_back(kf);
+    for (KeyframeEstimate& kf : estimator.TakeFinishedKeyframes()) keyframes.push_back(std::move(kf));
+    for (const MapLandmark& lm : estimator.TakeFinishedLandmarks()) landmarks[lm.id] = lm.position_world;
     for (ScaleLogEntry& entry : estimator.TakeScaleLog()) scale_log.push_back(std::move(entry));
     last_segment = std::max(last_segment, est.segment);
 
@@ -304,8 +387,12 @@ RunSummary RunPipeline(const RunRequest& request) {
     progress.Update(summary.frames);
   }
   progress.Finish();
-  for (KeyframeEstimate& kf : estimator.Finish()) keyframes.push_back(kf);
+  for (KeyframeEstimate& kf : estimator.Finish()) keyframes.push_back(std::move(kf));
+  for (const MapLandmark& lm : estimator.TakeFinishedLandmarks()) landmarks[lm.id] = lm.position_world;
   for (ScaleLogEntry& entry : estimator.TakeScaleLog()) scale_log.push_back(std::move(entry));
+  int map_observations_dropped = 0;
+  const SparseMap map =
+      BuildSparseMap(index, keyframes, landmarks, options.backend, &map_observations_dropped);
   summary.seconds = SecondsSince(run_start);
   summary.frames_per_second = summary.seconds > 0 ? summary.frames / summary.seconds : 0.0;
   summary.posed_frames = static_cast<int>(poses.size());
@@ -336,24 +423,31 @@ RunSummary RunPipeline(const RunRequest& request) {
   WriteTrajectory(dir / "keyframes.tum", keyframe_trajectory, TrajectoryFormat::kTum);
   std::string scale_csv = "frame,t_ns,segment,event,applied";
   for (const Camera& camera : rig.cameras) scale_csv += ",scale_" + camera.name;
-  scale_csv += ",rms_residual_m,singular_value_ratio,note\n";
+  scale_csv +=
+      ",measured_ratio,measured_sigma,gain,applied_ratio,scale_sigma,rms_residual_m,singular_value_ratio,"
+      "rms_reprojection_px,note\n";
   for (const ScaleLogEntry& e : scale_log) {
     scale_csv += StrCat(e.frame_index, ",", e.t_ns, ",", e.segment, ",", e.event, ",", e.applied ? 1 : 0);
     for (int c = 0; c < rig.NumCameras(); ++c) {
       scale_csv += ",";
       if (c < static_cast<int>(e.camera_scales.size())) scale_csv += FormatDouble(e.camera_scales[c]);
     }
-    scale_csv += StrCat(",", FormatDouble(e.rms_residual_m), ",", FormatDouble(e.singular_value_ratio), ",",
-                        CsvQuote(e.note), "\n");
+    scale_csv +=
+        StrCat(",", FormatDouble(e.measured_ratio), ",", FormatDouble(e.measured_sigma), ",",
+               FormatDouble(e.gain), ",", FormatDouble(e.applied_ratio), ",", FormatDouble(e.scale_sigma),
+               ",", FormatDouble(e.rms_residual_m), ",", FormatDouble(e.singular_value_ratio), ",",
+               FormatDouble(e.rms_reprojection_px), ",", CsvQuote(e.note), "\n");
   }
   WriteFileAtomic(dir / "scale_log.csv", scale_csv);
   WriteFileAtomic(dir / "frame_stats.csv", stats_csv);
   WriteFileAtomic(dir / "timing.csv", timing_csv);
 
+  std::optional<EvalResult> eval_result;
   if (index.ground_truth && trajectory.poses.size() >= MinPosesForAlignment(options.eval.align)) {
     try {
-      const EvalResult result = EvaluateTrajectory(*index.ground_truth, trajectory, options.eval,
-                                                   (index.root / "groundtruth").string(), "trajectory.tum");
+      eval_result = EvaluateTrajectory(*index.ground_truth, trajectory, options.eval,
+                                       (index.root / "groundtruth").string(), "trajectory.tum");
+      const EvalResult& result = *eval_result;
       CreateDirectories(dir / "eval");
       WriteEvalOutputs(dir / "eval", result);
       summary.evaluated = true;
@@ -367,15 +461,88 @@ RunSummary RunPipeline(const RunRequest& request) {
     }
   }
 
+  // The COLMAP model of the keyframes and landmarks.
+  nlohmann::ordered_json colmap_json;
+  double colmap_seconds = 0.0;
+  if (options.colmap.enabled) {
+    ColmapExportOptions colmap_options = options.colmap.export_options;
+    colmap_options.threads = threads;
+    const Clock::time_point colmap_start = Clock::now();
+    const ColmapExportReport colmap = WriteColmapModel(
+        rig, map, std::filesystem::absolute(index.root).lexically_normal(), colmap_options, dir / "colmap");
+    colmap_seconds = SecondsSince(colmap_start);
+    // The description names the staging folder: say "<out>/colmap" instead.
+    std::string description = DescribeColmapExport(colmap);
+    const std::string staged = (dir / "colmap").string();
+    for (size_t at = description.find(staged); at != std::string::npos; at = description.find(staged, at)) {
+      description.replace(at, staged.size(), (absolute_out / "colmap").string());
+    }
+    for (std::string_view line : SplitFields(description, '\n')) {
+      if (!Trim(line).empty()) MCVO_LOG(kInfo, "run: colmap: ", line);
+    }
+    colmap_json["images"] = colmap.images;
+    colmap_json["points"] = colmap.points;
+    colmap_json["observations"] = colmap.observations;
+    colmap_json["mean_track_length"] = colmap.mean_track_length;
+    colmap_json["mean_reprojection_error_px"] = colmap.mean_reprojection_error_px;
+    colmap_json["observations_dropped"] = colmap.observations_dropped;
+    colmap_json["landmarks_dropped"] = colmap.landmarks_dropped;
+    nlohmann::ordered_json cameras_json = nlohmann::ordered_json::array();
+    for (const ColmapCameraExport& camera : colmap.camera_exports) {
+      nlohmann::ordered_json c;
+      c["name"] = camera.name;
+      c["model"] = std::string(ColmapCameraModelName(camera.camera.model));
+      c["fitted"] = camera.fitted;
+      c["undistorted"] = camera.undistorted;
+      if (camera.fitted) {
+        c["fit_rms_px"] = camera.fit_rms_px;
+        c["fit_max_px"] = camera.fit_max_px;
+      }
+      c["observations_written"] = camera.observations_written;
+      c["observations_dropped"] = camera.observations_dropped;
+      cameras_json.push_back(c);
+    }
+    colmap_json["cameras"] = cameras_json;
+    colmap_json["notes"] = colmap.notes;
+  }
+
+  // report.html / report.md: deterministic content only (no timings).
+  PipelineOptions recorded = options;
+  recorded.runtime.threads = 0;  // the thread count does not change the results
+  const nlohmann::ordered_json recorded_config =
+      nlohmann::ordered_json::parse(PipelineOptionsToJson(recorded));
+  if (options.output.report) {
+    ReportInputs report;
+    report.title = StrCat("mcvo run: ", index.name, ", ", rig.NumCameras(), " camera(s)");
+    if (eval_result) {
+      report.eval = &*eval_result;
+      report.ground_truth = *index.ground_truth;
+    } else {
+      report.estimate = trajectory;
+    }
+    for (const ScaleLogEntry& e : scale_log) {
+      report.scale_log.push_back(
+          {e.frame_index, e.t_ns, e.segment, e.event, e.camera_scales, e.applied, e.note});
+    }
+    for (const Camera& camera : rig.cameras) report.camera_names.push_back(camera.name);
+    report.settings = recorded_config;
+    report.summary_rows = {{"program", StrCat("mcvo ", request.version)},
+                           {"dataset", StrCat(index.name, " (", index.format, ")")},
+                           {"input", request.tracks.empty() ? "images" : "track file"},
+                           {"frames", StrCat(summary.frames)},
+                           {"posed frames", StrCat(summary.posed_frames)},
+                           {"keyframes", StrCat(summary.keyframes)},
+                           {"segments", StrCat(summary.segments)}};
+    WriteReports(dir, report);
+  }
+
   // run.json: what was run, on what, what came out.
   nlohmann::ordered_json run;
   run["program"] = "mcvo";
   run["version"] = request.version;
   run["command_line"] = request.command_line;
   run["config_source"] = request.config_source;
-  PipelineOptions recorded = options;
-  recorded.runtime.threads = 0;  // the thread count does not change the results
-  run["config"] = nlohmann::ordered_json::parse(PipelineOptionsToJson(recorded));
+  run["config"] = recorded_config;
   nlohmann::ordered_json dataset;
   dataset["root"] = index.root.string();
   dataset["format"] = index.format;
@@ -386,25 +553,20 @@ RunSummary RunPipeline(const RunRequest& request) {
   dataset["cameras"] = cameras;
   run["dataset"] = dataset;
   nlohmann::ordered_json inputs;
-  inputs["rig_sha256"] = Sha256Hex(RigToJson(rig, index.root));
-  if (!request.tracks.empty()) {
-    inputs["tracks_sha256"] = Sha256File(request.tracks);
-  } else {
-    // One hash over the per-image hashes, in frame and camera order.
-    Sha256 images;
-    for (int f = 0; f < total_frames; ++f) {
-      for (const std::filesystem::path& path : index.frames[f].images) {
-        images.Update(path.empty() ? std::string("missing") : Sha256File(path));
-        images.Update("\n");
-      }
-    }
-    inputs["images_sha256"] = images.HexDigest();
-  }
+  for (const auto& [key, hash] : HashRunInputs(index, request.tracks, total_frames)) inputs[key] = hash;
   run["inputs"] = inputs;
   nlohmann::ordered_json outputs;
   std::vector<std::filesystem::path> files;
-  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
-    if (entry.is_regular_file()) files.push_back(entry.path());
+  // colmap/images/ holds links to (or copies of) the input images, whose
+  // hashes are under "inputs", or images remapped from them: not hashed.
+  const std::filesystem::path colmap_images = dir / "colmap" / "images";
+  for (auto it = std::filesystem::recursive_directory_iterator(dir);
+       it != std::filesystem::recursive_directory_iterator(); ++it) {
+    if (it->path() == colmap_images) {
+      it.disable_recursion_pending();
+      continue;
+    }
+    if (!it->is_symlink() && it->is_regular_file()) files.push_back(it->path());
   }
   std::sort(files.begin(), files.end());
   for (const auto& path : files) {
@@ -422,7 +584,11 @@ RunSummary RunPipeline(const RunRequest& request) {
     result["scale_error_percent"] = summary.scale_error_percent;
     result["gt_path_length_m"] = summary.gt_path_length_m;
   }
+  result["sparse_map_keyframes"] = map.keyframes.size();
+  result["sparse_map_landmarks"] = map.landmarks.size();
+  result["sparse_map_observations_dropped"] = map_observations_dropped;
   run["result"] = result;
+  if (!colmap_json.is_null()) run["colmap"] = colmap_json;
   nlohmann::ordered_json timing;
   timing["note"] = "wall-clock, not deterministic; seconds per frame, means over the run";
   timing["threads"] = threads;
@@ -436,6 +602,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   timing["marginalization_s"] = totals.marginalization / n;
   timing["scale_correction_s"] = totals.scale / n;
   timing["backend_s"] = totals.backend / n;
+  timing["colmap_export_s_total"] = colmap_seconds;
   run["timing"] = timing;
   WriteFileAtomic(dir / "run.json", io_internal::PrettyJson(run));
 

@@ -80,8 +80,10 @@ TEST(RunCli, CompletesAccuratelyAndIsDeterministic) {
               Quote(out2.string()));
   ASSERT_EQ(r.exit_code, 0) << r.output;
 
-  for (const char* file : {"trajectory.tum", "trajectory_kitti.txt", "trajectory_euroc.csv", "keyframes.tum",
-                           "scale_log.csv", "frame_stats.csv", "timing.csv", "run.json", "eval/eval.json"}) {
+  for (const char* file :
+       {"trajectory.tum", "trajectory_kitti.txt", "trajectory_euroc.csv", "keyframes.tum", "scale_log.csv",
+        "frame_stats.csv", "timing.csv", "run.json", "eval/eval.json", "report.html", "report.md",
+        "colmap/sparse/0/points3D.bin", "colmap/sparse_txt/0/points3D.txt"}) {
     EXPECT_TRUE(fs::is_regular_file(out1 / file)) << file;
   }
   EXPECT_FALSE(fs::exists(Root() / ("run_t1.tmp-" + std::to_string(::getpid()))));
@@ -95,6 +97,25 @@ TEST(RunCli, CompletesAccuratelyAndIsDeterministic) {
   EXPECT_EQ(hashes1, hashes2);
   EXPECT_EQ(run1["config"], run2["config"]);
   EXPECT_EQ(run1["inputs"], run2["inputs"]);
+  EXPECT_TRUE(hashes1.contains("colmap/sparse/0/points3D.bin"));
+  EXPECT_TRUE(hashes1.contains("report.html"));
+
+  // The COLMAP model of the keyframes and landmarks: a real map, observations
+  // that fit it (the map keeps those within 2x the back end's outlier
+  // threshold of the final landmarks: about 2 px here), images linked.
+  const nlohmann::json& colmap = run1["colmap"];
+  std::printf("colmap: %d images, %d points, %d observations, mean error %.3f px\n",
+              colmap["images"].get<int>(), colmap["points"].get<int>(), colmap["observations"].get<int>(),
+              colmap["mean_reprojection_error_px"].get<double>());
+  EXPECT_GT(colmap["points"].get<int>(), 300);
+  EXPECT_GT(colmap["mean_track_length"].get<double>(), 3.0);
+  EXPECT_LT(colmap["mean_reprojection_error_px"].get<double>(), 1.0);
+  EXPECT_EQ(run1["result"]["sparse_map_keyframes"].get<int>(), run1["result"]["keyframes"].get<int>());
+  int links = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(out1 / "colmap" / "images")) {
+    links += entry.is_symlink() && fs::is_regular_file(entry.path()) ? 1 : 0;
+  }
+  EXPECT_EQ(links, colmap["images"].get<int>());
 
   // The blacked-out fisheye does not break tracking: one segment, every
   // frame after initialisation posed.

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "mcvo/backend/backend_options.h"
+#include "mcvo/colmap/colmap_model.h"
 #include "mcvo/eval/evaluate.h"
 #include "mcvo/frontend/frontend_options.h"
 #include "mcvo/initializer/initializer.h"
@@ -49,6 +50,22 @@ struct LoopOptions {
   void Check() const;
 };
 
+// What `mcvo run` writes besides the trajectories, logs and run.json
+// (docs/run-outputs.md).
+struct OutputOptions {
+  bool report = true;  // report.html and report.md
+  void Check() const {}
+};
+
+// The COLMAP model of a run's keyframes and landmarks (colmap/ in the run
+// folder; docs/colmap-export.md). The export's own options; its threads
+// come from /runtime/threads and the run replaces its own folder.
+struct ColmapOutputOptions {
+  bool enabled = true;
+  ColmapExportOptions export_options;
+  void Check() const;
+};
+
 struct RuntimeOptions {
   int threads = 0;  // 0: hardware concurrency
   int64_t seed = 0;
@@ -63,6 +80,8 @@ struct PipelineOptions {
   InitializerOptions initializer;
   BackendOptions backend;
   LoopOptions loop;
+  OutputOptions output;
+  ColmapOutputOptions colmap;
   RuntimeOptions runtime;
   EvalOptions eval;  // the component's own options (eval/evaluate.h)
 

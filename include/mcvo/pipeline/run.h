@@ -23,6 +23,7 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mcvo/config/pipeline_options.h"
@@ -59,5 +60,15 @@ struct RunSummary {
 // Runs the pipeline. Bad input throws InputError / UsageError naming the file
 // and field; nothing is left at out_dir then.
 RunSummary RunPipeline(const RunRequest& request);
+
+// The "inputs" section of run.json as (key, SHA-256 hex) pairs in the order
+// written: "rig_sha256" (the rig as used), then "tracks_sha256" (the track
+// file) or "images_sha256" (one hash over the per-image hashes of the first
+// `frames` frames, in frame and camera order; "missing" for a missing image).
+// Reads the input files but decodes nothing, so `mcvo batch` can tell
+// whether a finished run is up to date without running it again.
+std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetIndex& index,
+                                                               const std::filesystem::path& tracks,
+                                                               int frames);
 
 }  // namespace mcvo
