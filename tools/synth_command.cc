@@ -27,9 +27,12 @@ int RunSynth(int argc, const char* const* argv) {
   args.AddString("preset", &options.preset, "NAME",
                  "kitti360 | kitti360-3cam | stereo | multicam6 | irregular5 (rig + default scene)");
   args.AddString("rig", &rig_path, "FILE", "a rig.json instead of a preset (needs --scene)");
-  args.AddString("scene", &options.scene, "NAME", "urban | indoor | open (default: the preset's)");
+  args.AddString("scene", &options.scene, "NAME",
+                 "urban | urban_block | urban_repeated | indoor | open (default: the preset's)");
   args.AddString("out", &out_dir, "DIR", "output folder (must not exist or be empty, unless --force)", true);
-  args.AddInt("frames", &options.frames, "number of frames; 0: the whole route once");
+  args.AddInt("frames", &options.frames,
+              "number of frames; 0: the whole route once (a closed route repeats past its end)");
+  args.AddDouble("laps", &options.laps, "instead of --frames: drive the route this many times (e.g. 1.3)");
   args.AddInt("seed", &seed, "seed of the scene layout, trajectory variation and noise");
   args.AddDouble("image-scale", &options.image_scale, "shrink (or grow) images and intrinsics together");
   args.AddDouble("rate", &options.frame_rate_hz, "frames per second");
@@ -47,8 +50,10 @@ int RunSynth(int argc, const char* const* argv) {
               "render threads (0: all cores); output is the same for any");
   args.AddFlag("force", &options.force, "replace a non-empty output folder");
   args.AddEpilog(
-      "Moving objects are part of the urban scene. Examples:\n"
+      "Moving objects are part of the urban scenes. urban_block is a short closed lap around one block\n"
+      "(loop closure), urban_repeated an open route past look-alike facades (no true loops). Examples:\n"
       "  mcvo synth --preset kitti360 --out seq/kitti360 --frames 200 --image-scale 0.5\n"
+      "  mcvo synth --preset kitti360 --scene urban_block --laps 1.3 --image-scale 0.25 --out seq/loop\n"
       "  mcvo synth --rig my_rig.json --scene indoor --out seq/lab --noise 2 --vignetting\n");
   if (!args.Parse(argc, argv)) return kExitOk;
   if (seed < 0) throw UsageError("--seed must be >= 0");
@@ -83,9 +88,15 @@ int RunSynth(int argc, const char* const* argv) {
     bar.Update(done);
   });
   bar.Finish();
+  if (!summary.route_closed && summary.laps > 1.0) {
+    MCVO_LOG(kWarning, "the route is open: the rig stands still at its end for the last ",
+             FormatFixed((summary.laps - 1.0) * summary.lap_seconds, 1), " s");
+  }
   MCVO_LOG(kInfo, "wrote ", summary.frames, " frames x ", summary.cameras, " cameras to ", out_dir, " (",
            FormatFixed(summary.megapixels_per_frame, 2), " Mpx per frame, route ",
-           FormatFixed(summary.route_length_m, 1), " m) in ", FormatFixed(summary.render_seconds, 1),
+           FormatFixed(summary.route_length_m, 1), " m ", summary.route_closed ? "closed" : "open", ", lap ",
+           FormatFixed(summary.lap_seconds, 2), " s, ", FormatFixed(summary.laps, 2), " laps) in ",
+           FormatFixed(summary.render_seconds, 1),
            " s: ", FormatFixed(summary.render_seconds / summary.frames, 3), " s per frame, ",
            FormatFixed(summary.render_seconds / (summary.frames * summary.megapixels_per_frame), 3),
            " s per Mpx");

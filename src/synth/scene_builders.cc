@@ -155,11 +155,20 @@ std::vector<BoxSpec> TreeBoxes(const Eigen::Vector2d& center, double crown_size,
 
 }  // namespace internal
 
+const std::vector<std::string>& SceneNames() {
+  static const std::vector<std::string> names = {"urban", "urban_block", "urban_repeated", "indoor", "open"};
+  return names;
+}
+
 SceneWithRoute BuildScene(const std::string& name, uint64_t seed) {
   if (name == "urban") return BuildUrbanScene(seed);
+  if (name == "urban_block") return BuildUrbanBlockScene(seed);
+  if (name == "urban_repeated") return BuildUrbanRepeatedScene(seed);
   if (name == "indoor") return BuildIndoorScene(seed);
   if (name == "open") return BuildOpenScene(seed);
-  throw InputError("unknown scene '" + name + "' (known: urban, indoor, open)");
+  std::string known;
+  for (const std::string& known_name : SceneNames()) known += (known.empty() ? "" : ", ") + known_name;
+  throw InputError("unknown scene '" + name + "' (known: " + known + ")");
 }
 
 void WriteSceneCsv(const std::filesystem::path& path, const Scene& scene) {

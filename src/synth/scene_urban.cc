@@ -1,18 +1,37 @@
-// Urban scene: a grid of streets lined with continuous building facades.
+// Urban scenes: a grid of streets lined with continuous building facades.
 //
-// Layout (metres, world z up): street centre lines x = xs[0..kLinesX-1],
-// y = ys[0..kLinesY-1]; every street is 17 m between facades (11 m road,
+// Layout (metres, world z up): street centre lines x = xs[0..lines_x-1],
+// y = ys[0..lines_y-1]; every street is 17 m between facades (11 m road,
 // 3 m sidewalks). Each block between street lines is lined with building
 // boxes along its four edges (street walls with a few alleys), and an outer
-// ring of buildings closes the views down every street. The route is a closed
-// loop on the interior streets, driven in the right lane (2 m right of the
-// centre line), with left and right turns at intersections.
-#include <array>
+// ring of buildings closes the views down every street. The route runs on
+// the streets through the intersections, driven in the right lane (2 m right
+// of the centre line).
+//
+// One generator, three variants (UrbanVariant below):
+//  * urban: 6 x 5 street lines, blocks 72-96 m, a closed 1.2 km loop with a
+//    U-shaped detour (6 left and 2 right turns).
+//  * urban_block: the same city on 4 x 4 lines with blocks of 56-72 m; the
+//    route is one lap counter-clockwise around the central block (4 left
+//    turns, about 290-360 m), meant to be driven several times (loop closure).
+//  * urban_repeated: 5 x 5 lines with blocks of 80-84 m whose buildings all
+//    wear the same two facade designs (one plaster, one brick, alternating,
+//    fixed widths and heights) and one shop-front design, no posters or trees;
+//    the route is an open staircase (east, north, east, ...: 4 turns, rig
+//    path about 470-490 m) that never comes back near an earlier place, so
+//    every look-alike view is a false loop candidate.
+// The urban variant draws exactly the random numbers it drew before the other
+// two existed: its scene, route and images are unchanged for every seed.
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <string>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "mcvo/synth/scene.h"
+#include "mcvo/util/error.h"
 #include "scene_build_util.h"
 
 namespace mcvo::synth {
@@ -21,8 +40,6 @@ namespace {
 using Eigen::Vector2d;
 using internal::SceneRng;
 
-constexpr int kLinesX = 6;
-constexpr int kLinesY = 5;
 constexpr double kRoadHalf = 5.5;    // road: +-5.5 m from the centre line
 constexpr double kStreetHalf = 8.5;  // facades: +-8.5 m (3 m sidewalks)
 constexpr double kLane = 2.0;        // right-lane offset of the route
@@ -42,25 +59,99 @@ struct Design {
 // of the segment along the line) -> unit direction of travel.
 using SegmentKey = std::tuple<int, int, int>;
 
+// What distinguishes the urban scenes. Grid coordinates (gx, gy) name the
+// point (xs[gx], ys[gy]); a fractional coordinate lies on the street between
+// two lines (the ends of an open route).
+struct UrbanVariant {
+  std::string name;
+  int lines_x = 6;
+  int lines_y = 5;
+  double block_min_m = 72.0;  // block size between facades, drawn per street line
+  double block_max_m = 96.0;
+  // Route through intersection centres; consecutive points on one street
+  // line and within one block (straight through an intersection: list it).
+  std::vector<Vector2d> route;
+  bool route_closed = true;
+  double moving_car_on_route = 0.35;  // probability of a moving car per route segment
+  bool trees = true;
+  // Every building gets one of two fixed designs (alternating) on all four
+  // sides, ground-floor shop fronts share one seed, no posters.
+  bool repeated_facades = false;
+};
+
+UrbanVariant UrbanVariantNamed(const std::string& name) {
+  UrbanVariant v;
+  v.name = name;
+  if (name == "urban") {
+    // Closed loop, counter-clockwise with a U-shaped detour: 6 left and 2 right turns.
+    v.route = {{1, 1}, {2, 1}, {3, 1}, {4, 1}, {4, 2}, {4, 3},
+               {3, 3}, {3, 2}, {2, 2}, {2, 3}, {1, 3}, {1, 2}};
+  } else if (name == "urban_block") {
+    // One block counter-clockwise: 4 left turns, lap 4 x (73-89 m + 4 m) less the corner blends.
+    v.lines_x = 4;
+    v.lines_y = 4;
+    v.block_min_m = 56.0;
+    v.block_max_m = 72.0;
+    v.route = {{1, 1}, {2, 1}, {2, 2}, {1, 2}};
+    v.moving_car_on_route = 0.6;
+  } else {
+    MCVO_CHECK_MSG(name == "urban_repeated", "unknown urban variant ", name);
+    // Open staircase from mid-block to mid-block: east, north, east, north,
+    // east (5 blocks of 97-101 m); x and y never decrease, so points s metres
+    // apart along it are at least s / sqrt(2) apart.
+    v.lines_x = 5;
+    v.lines_y = 5;
+    v.block_min_m = 80.0;
+    v.block_max_m = 84.0;
+    v.route = {{0.5, 1}, {1, 1}, {1, 2}, {2, 2}, {2, 3}, {3, 3}, {3.5, 3}};
+    v.route_closed = false;
+    v.trees = false;
+    v.repeated_facades = true;
+  }
+  return v;
+}
+
+// The coordinate of grid coordinate g on the street lines `lines`.
+double LineCoordinate(const std::vector<double>& lines, double g) {
+  const int i = static_cast<int>(std::floor(g));
+  const double f = g - i;
+  MCVO_CHECK(i >= 0 && i < static_cast<int>(lines.size()) &&
+             (f == 0.0 || i + 1 < static_cast<int>(lines.size())));
+  return f == 0.0 ? lines[i] : lines[i] + f * (lines[i + 1] - lines[i]);
+}
+
 class UrbanBuilder {
  public:
-  explicit UrbanBuilder(uint64_t seed) : rng_(seed) {}
+  UrbanBuilder(UrbanVariant variant, uint64_t seed) : v_(std::move(variant)), rng_(seed) {}
 
   SceneWithRoute Build() {
     xs_.push_back(0.0);
-    for (int i = 1; i < kLinesX; ++i) xs_.push_back(xs_.back() + rng_.Uniform(72.0, 96.0) + 2 * kStreetHalf);
+    for (int i = 1; i < v_.lines_x; ++i)
+      xs_.push_back(xs_.back() + rng_.Uniform(v_.block_min_m, v_.block_max_m) + 2 * kStreetHalf);
     ys_.push_back(0.0);
-    for (int j = 1; j < kLinesY; ++j) ys_.push_back(ys_.back() + rng_.Uniform(72.0, 96.0) + 2 * kStreetHalf);
-    for (int k = 0; k < 4; ++k) {
-      designs_.push_back({rng_.Bernoulli(0.5) ? Material::kFacadeBrick : Material::kFacadePlaster,
-                          rng_.Seed32(), rng_.Uniform(10.0, 20.0), rng_.Uniform(10.0, 24.0)});
+    for (int j = 1; j < v_.lines_y; ++j)
+      ys_.push_back(ys_.back() + rng_.Uniform(v_.block_min_m, v_.block_max_m) + 2 * kStreetHalf);
+    if (v_.repeated_facades) {
+      // Two designs, regular and alike: a plaster one and a narrower brick one.
+      const uint32_t plaster_seed = rng_.Seed32();
+      const double plaster_width = rng_.Uniform(12.0, 15.0), plaster_height = rng_.Uniform(15.0, 19.0);
+      const uint32_t brick_seed = rng_.Seed32();
+      const double brick_width = rng_.Uniform(9.0, 11.0), brick_height = rng_.Uniform(11.0, 14.0);
+      designs_.push_back({Material::kFacadePlaster, plaster_seed, plaster_width, plaster_height});
+      designs_.push_back({Material::kFacadeBrick, brick_seed, brick_width, brick_height});
+      shop_seed_ = rng_.Seed32();
+    } else {
+      for (int k = 0; k < 4; ++k) {
+        designs_.push_back({rng_.Bernoulli(0.5) ? Material::kFacadeBrick : Material::kFacadePlaster,
+                            rng_.Seed32(), rng_.Uniform(10.0, 20.0), rng_.Uniform(10.0, 24.0)});
+      }
     }
     MakeRoute();
     AddBlocks();
     AddOuterRing();
     AddStreets();
-    result_.name = "urban";
-    result_.route_closed = true;
+    result_.name = v_.name;
+    result_.route_closed = v_.route_closed;
     result_.style = MotionStyle::kVehicle;
     result_.speed_mps = 10.0;
     result_.rig_height_m = 1.5;
@@ -75,31 +166,44 @@ class UrbanBuilder {
     for (const BoxSpec& b : boxes) scene().AddBox(b);
   }
 
-  // Closed loop on the interior grid (grid indices), counter-clockwise with
-  // a U-shaped detour: 6 left and 2 right turns.
+  // Waypoints of the route in the right lane: on a straight through an
+  // intersection 2 m right of the centre line, at a turn on the corner of the
+  // two lanes, at the ends of an open route 2 m right of the street's centre.
   void MakeRoute() {
-    const std::vector<std::array<int, 2>> grid = {{1, 1}, {2, 1}, {3, 1}, {4, 1}, {4, 2}, {4, 3},
-                                                  {3, 3}, {3, 2}, {2, 2}, {2, 3}, {1, 3}, {1, 2}};
+    const std::vector<Vector2d>& grid = v_.route;
     const int n = static_cast<int>(grid.size());
+    const bool closed = v_.route_closed;
+    MCVO_CHECK(n >= (closed ? 3 : 2));
     const auto centre = [&](int k) {
-      const auto& g = grid[(k + n) % n];
-      return Vector2d(xs_[g[0]], ys_[g[1]]);
+      const Vector2d& g = grid[(k + n) % n];
+      return Vector2d(LineCoordinate(xs_, g.x()), LineCoordinate(ys_, g.y()));
     };
     const auto right = [](const Vector2d& d) { return Vector2d(d.y(), -d.x()); };
     for (int k = 0; k < n; ++k) {
       const Vector2d c = centre(k);
-      const Vector2d dir_in = (c - centre(k - 1)).normalized(), dir_out = (centre(k + 1) - c).normalized();
-      const Vector2d p = dir_in.dot(dir_out) > 0.5 ? Vector2d(c + kLane * right(dir_in))
-                                                   : Vector2d(c + kLane * (right(dir_in) + right(dir_out)));
-      result_.waypoints.emplace_back(p.x(), p.y(), 0.0);
-      // Record the street segment to the next grid point.
-      const auto& g0 = grid[k];
-      const auto& g1 = grid[(k + 1) % n];
-      if (g0[1] == g1[1]) {
-        route_segments_[{0, g0[1], std::min(g0[0], g1[0])}] = dir_out;
+      Vector2d p;
+      if (!closed && k == 0) {
+        p = c + kLane * right((centre(1) - c).normalized());
+      } else if (!closed && k == n - 1) {
+        p = c + kLane * right((c - centre(k - 1)).normalized());
       } else {
-        route_segments_[{1, g0[0], std::min(g0[1], g1[1])}] = dir_out;
+        const Vector2d dir_in = (c - centre(k - 1)).normalized(), dir_out = (centre(k + 1) - c).normalized();
+        p = dir_in.dot(dir_out) > 0.5 ? Vector2d(c + kLane * right(dir_in))
+                                      : Vector2d(c + kLane * (right(dir_in) + right(dir_out)));
       }
+      result_.waypoints.emplace_back(p.x(), p.y(), 0.0);
+      if (!closed && k == n - 1) break;
+      // Record the street segment to the next grid point.
+      const Vector2d dir_out = (centre(k + 1) - c).normalized();
+      const Vector2d& g0 = grid[k];
+      const Vector2d& g1 = grid[(k + 1) % n];
+      const bool vertical = g0.x() == g1.x();
+      MCVO_CHECK(vertical || g0.y() == g1.y());
+      const double line = vertical ? g0.x() : g0.y();
+      const double lo = vertical ? std::min(g0.y(), g1.y()) : std::min(g0.x(), g1.x());
+      const double hi = vertical ? std::max(g0.y(), g1.y()) : std::max(g0.x(), g1.x());
+      MCVO_CHECK(line == std::floor(line) && hi <= std::floor(lo) + 1.0);
+      route_segments_[{vertical ? 1 : 0, static_cast<int>(line), static_cast<int>(std::floor(lo))}] = dir_out;
     }
   }
 
@@ -116,6 +220,10 @@ class UrbanBuilder {
   // behind it (away from `outward`).
   void AddBuildingRow(const Vector2d& start, const Vector2d& end, const Vector2d& outward, double depth,
                       bool allow_alleys) {
+    if (v_.repeated_facades) {
+      AddRepeatedRow(start, end, outward, depth);
+      return;
+    }
     const Vector2d dir = (end - start).normalized();
     const double length = (end - start).norm();
     double pos = 0.0;
@@ -128,16 +236,7 @@ class UrbanBuilder {
       double width = d.width;
       if (length - pos - width < 6.0) width = length - pos;
       const Vector2d f0 = start + pos * dir, f1 = f0 + width * dir;
-      const Vector2d facade_centre = 0.5 * (f0 + f1);
-      BoxSpec box;
-      box.center = Eigen::Vector3d(facade_centre.x() - 0.5 * depth * outward.x(),
-                                   facade_centre.y() - 0.5 * depth * outward.y(), 0.0);
-      box.yaw_rad = std::atan2(outward.y(), outward.x());  // box +x face towards the street
-      box.size = Eigen::Vector3d(depth, width, d.height);
-      box.side_material = d.material;
-      box.top_material = Material::kMetal;
-      box.texture_seed = d.seed;
-      scene().AddBox(box);
+      scene().AddBox(BuildingBox(f0, f1, width, outward, depth, d));
       // Ground floor: a shop front 5 cm in front of the facade, or posters.
       const Vector2d off = 0.05 * outward;
       if (width >= 5.0 && rng_.Bernoulli(0.45)) {
@@ -153,9 +252,52 @@ class UrbanBuilder {
     }
   }
 
+  // The building behind the facade f0 -> f1 (`width` apart) in design d, `depth` deep.
+  static BoxSpec BuildingBox(const Vector2d& f0, const Vector2d& f1, double width, const Vector2d& outward,
+                             double depth, const Design& d) {
+    const Vector2d facade_centre = 0.5 * (f0 + f1);
+    BoxSpec box;
+    box.center = Eigen::Vector3d(facade_centre.x() - 0.5 * depth * outward.x(),
+                                 facade_centre.y() - 0.5 * depth * outward.y(), 0.0);
+    box.yaw_rad = std::atan2(outward.y(), outward.x());  // box +x face towards the street
+    box.size = Eigen::Vector3d(depth, width, d.height);
+    box.side_material = d.material;
+    box.top_material = Material::kMetal;
+    box.texture_seed = d.seed;
+    return box;
+  }
+
+  // urban_repeated: the row alternates the two designs from its start, each
+  // at its own width (the last building takes what is left), every side of a
+  // building in its design's texture (the same seed on all four sides, not
+  // BoxFaceSeed's per-face seeds), and every plaster building has the one
+  // shop front design on its ground floor. No alleys, no posters.
+  void AddRepeatedRow(const Vector2d& start, const Vector2d& end, const Vector2d& outward, double depth) {
+    const Vector2d dir = (end - start).normalized();
+    const double length = (end - start).norm();
+    double pos = 0.0;
+    for (size_t k = 0; length - pos > 3.0; ++k) {
+      const Design& d = designs_[k % designs_.size()];
+      double width = d.width;
+      if (length - pos - width < 6.0) width = length - pos;
+      const Vector2d f0 = start + pos * dir, f1 = f0 + width * dir;
+      std::vector<Quad> faces = MakeBoxQuads(BuildingBox(f0, f1, width, outward, depth, d));
+      for (size_t face = 0; face < faces.size(); ++face) {
+        if (faces[face].material == d.material) faces[face].texture_seed = d.seed;
+        scene().AddQuad(faces[face]);
+      }
+      if (d.material == Material::kFacadePlaster && width >= 5.0) {
+        const Vector2d off = 0.05 * outward;
+        AddFacadeQuad(f0 + 0.4 * dir + off, f1 - 0.4 * dir + off, outward, 0.0, 4.0, Material::kShopFront,
+                      shop_seed_);
+      }
+      pos += width;
+    }
+  }
+
   void AddBlocks() {
-    for (int i = 0; i + 1 < kLinesX; ++i) {
-      for (int j = 0; j + 1 < kLinesY; ++j) {
+    for (int i = 0; i + 1 < v_.lines_x; ++i) {
+      for (int j = 0; j + 1 < v_.lines_y; ++j) {
         const double x0 = xs_[i] + kStreetHalf, x1 = xs_[i + 1] - kStreetHalf;
         const double y0 = ys_[j] + kStreetHalf, y1 = ys_[j + 1] - kStreetHalf;
         const double depth = std::min(rng_.Uniform(12.0, 20.0), 0.5 * std::min(x1 - x0, y1 - y0) - 4.0);
@@ -180,14 +322,14 @@ class UrbanBuilder {
 
   // Road, sidewalks, markings and props of every street segment and intersection.
   void AddStreets() {
-    for (int i = 0; i < kLinesX; ++i) {
-      for (int j = 0; j < kLinesY; ++j) AddIntersection(i, j);
+    for (int i = 0; i < v_.lines_x; ++i) {
+      for (int j = 0; j < v_.lines_y; ++j) AddIntersection(i, j);
     }
-    for (int j = 0; j < kLinesY; ++j) {
-      for (int i = 0; i + 1 < kLinesX; ++i) AddSegment(0, j, i, {xs_[i], ys_[j]}, {xs_[i + 1], ys_[j]});
+    for (int j = 0; j < v_.lines_y; ++j) {
+      for (int i = 0; i + 1 < v_.lines_x; ++i) AddSegment(0, j, i, {xs_[i], ys_[j]}, {xs_[i + 1], ys_[j]});
     }
-    for (int i = 0; i < kLinesX; ++i) {
-      for (int j = 0; j + 1 < kLinesY; ++j) AddSegment(1, i, j, {xs_[i], ys_[j]}, {xs_[i], ys_[j + 1]});
+    for (int i = 0; i < v_.lines_x; ++i) {
+      for (int j = 0; j + 1 < v_.lines_y; ++j) AddSegment(1, i, j, {xs_[i], ys_[j]}, {xs_[i], ys_[j + 1]});
     }
   }
 
@@ -198,11 +340,11 @@ class UrbanBuilder {
     // Arms: asphalt where a street continues, sidewalk where the street ends (T junction).
     const auto arm_material = [](bool street) { return street ? Material::kAsphalt : Material::kSidewalk; };
     scene().AddQuad(internal::HorizontalQuad(cx + r, cy - r, cx + s, cy + r, 0.0,
-                                             arm_material(i + 1 < kLinesX), rng_.Seed32()));
+                                             arm_material(i + 1 < v_.lines_x), rng_.Seed32()));
     scene().AddQuad(
         internal::HorizontalQuad(cx - s, cy - r, cx - r, cy + r, 0.0, arm_material(i > 0), rng_.Seed32()));
     scene().AddQuad(internal::HorizontalQuad(cx - r, cy + r, cx + r, cy + s, 0.0,
-                                             arm_material(j + 1 < kLinesY), rng_.Seed32()));
+                                             arm_material(j + 1 < v_.lines_y), rng_.Seed32()));
     scene().AddQuad(
         internal::HorizontalQuad(cx - r, cy - s, cx + r, cy - r, 0.0, arm_material(j > 0), rng_.Seed32()));
     for (int sx : {-1, 1}) {
@@ -251,7 +393,7 @@ class UrbanBuilder {
         pole.texture_seed = rng_.Seed32();
         scene().AddBox(pole);
       }
-      if (rng_.Bernoulli(0.4)) {
+      if (v_.trees && rng_.Bernoulli(0.4)) {
         for (double at = rng_.Uniform(6.0, 12.0); at < length - 6.0; at += rng_.Uniform(11.0, 17.0)) {
           AddBoxes(internal::TreeBoxes(p0 + at * dir + side * 7.2 * left, rng_.Uniform(2.0, 2.6),
                                        rng_.Uniform(5.0, 8.0), &rng_));
@@ -269,7 +411,7 @@ class UrbanBuilder {
     }
     // Moving cars: on route segments in the opposite lane only, elsewhere in
     // either lane; they stay 25 m from the intersection centres.
-    if (rng_.Bernoulli(on_route ? 0.35 : 0.12) && (b - a).norm() > 70.0) {
+    if (rng_.Bernoulli(on_route ? v_.moving_car_on_route : 0.12) && (b - a).norm() > 70.0) {
       const double side = on_route ? left_side : (rng_.Bernoulli(0.5) ? 1.0 : -1.0);
       // Right-hand traffic: in the lane left of `dir` cars drive against it.
       const Vector2d travel = side > 0 ? Vector2d(-dir) : dir;
@@ -286,15 +428,25 @@ class UrbanBuilder {
     }
   }
 
+  const UrbanVariant v_;
   SceneRng rng_;
   SceneWithRoute result_;
   std::vector<double> xs_, ys_;
   std::vector<Design> designs_;
+  uint32_t shop_seed_ = 0;  // urban_repeated: the one shop-front design
   std::map<SegmentKey, Vector2d> route_segments_;
 };
 
 }  // namespace
 
-SceneWithRoute BuildUrbanScene(uint64_t seed) { return UrbanBuilder(seed).Build(); }
+SceneWithRoute BuildUrbanScene(uint64_t seed) {
+  return UrbanBuilder(UrbanVariantNamed("urban"), seed).Build();
+}
+SceneWithRoute BuildUrbanBlockScene(uint64_t seed) {
+  return UrbanBuilder(UrbanVariantNamed("urban_block"), seed).Build();
+}
+SceneWithRoute BuildUrbanRepeatedScene(uint64_t seed) {
+  return UrbanBuilder(UrbanVariantNamed("urban_repeated"), seed).Build();
+}
 
 }  // namespace mcvo::synth

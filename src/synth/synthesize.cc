@@ -133,8 +133,15 @@ Rig PresetRig(const std::string& preset_name) {
 
 void SynthOptions::Check() const {
   if (preset.empty() == rig_path.empty()) throw UsageError("give either --preset or --rig");
-  if (!rig_path.empty() && scene.empty()) throw UsageError("--rig needs --scene (urban, indoor or open)");
+  if (!rig_path.empty() && scene.empty()) {
+    std::string known;
+    for (const std::string& name : SceneNames()) known += (known.empty() ? "" : ", ") + name;
+    throw UsageError("--rig needs --scene (" + known + ")");
+  }
   if (frames < 0) throw UsageError(StrCat("frames: must be >= 0, got ", frames));
+  if (!(laps >= 0.0 && laps <= 1e4))
+    throw UsageError(StrCat("laps: must be in [0, 1e4], got ", FormatDouble(laps)));
+  if (laps > 0.0 && frames > 0) throw UsageError("give either frames or laps, not both");
   if (!(image_scale > 0.0 && image_scale <= 4.0)) {
     throw UsageError(StrCat("image_scale: must be in (0, 4], got ", FormatDouble(image_scale)));
   }
@@ -162,15 +169,22 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
                             " but the rig has ", rig.NumCameras(), " cameras"));
   }
   const SceneWithRoute world = BuildScene(scene_name, options.seed);
-  const SmoothTrajectory trajectory({world.waypoints, world.route_closed, world.style, world.speed_mps, 2.5,
-                                     world.rig_height_m, options.seed});
+  const SmoothTrajectory trajectory(RouteTrajectorySpec(world, options.seed));
   const double period_s = 1.0 / options.frame_rate_hz;
   const int64_t period_ns = std::llround(period_s * 1e9);
-  const int frames =
-      options.frames > 0
-          ? options.frames
-          : std::max(1, static_cast<int>(std::floor(static_cast<double>(trajectory.DurationNs()) /
-                                                    static_cast<double>(period_ns))));
+  if (options.laps > 1.0 && !world.route_closed) {
+    throw UsageError(StrCat("laps: the route of scene '", scene_name,
+                            "' is open and can be driven once (laps <= 1), got ",
+                            FormatDouble(options.laps)));
+  }
+  const double laps = options.laps > 0.0 ? options.laps : 1.0;
+  const double frames_in_laps =
+      std::floor(laps * static_cast<double>(trajectory.DurationNs()) / static_cast<double>(period_ns));
+  if (options.frames == 0 && frames_in_laps > 1e7) {
+    throw UsageError(StrCat("laps: ", FormatDouble(laps), " laps are ", FormatDouble(frames_in_laps),
+                            " frames, more than 1e7"));
+  }
+  const int frames = options.frames > 0 ? options.frames : std::max(1, static_cast<int>(frames_in_laps));
 
   // Everything is written below `staging` and renamed onto out_dir at the end.
   const std::filesystem::path absolute_out = std::filesystem::absolute(out_dir).lexically_normal();
@@ -196,6 +210,10 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
   summary.cameras = rig.NumCameras();
   summary.frames = frames;
   summary.route_length_m = trajectory.LengthM();
+  summary.route_closed = world.route_closed;
+  summary.lap_seconds = static_cast<double>(trajectory.DurationNs()) * 1e-9;
+  summary.laps = static_cast<double>(frames) * static_cast<double>(period_ns) /
+                 static_cast<double>(trajectory.DurationNs());
   for (const Camera& camera : rig.cameras)
     summary.megapixels_per_frame += camera.width * camera.height * 1e-6;
 

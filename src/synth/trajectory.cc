@@ -183,6 +183,18 @@ void QuinticHermite(double h, double p0, double v0, double a0, double p1, double
 
 }  // namespace
 
+TrajectorySpec RouteTrajectorySpec(const SceneWithRoute& scene, uint64_t seed) {
+  TrajectorySpec spec;
+  spec.waypoints = scene.waypoints;
+  spec.closed = scene.route_closed;
+  spec.style = scene.style;
+  spec.speed_mps = scene.speed_mps;
+  spec.max_lateral_accel_mps2 = 2.5;
+  spec.rig_height_m = scene.rig_height_m;
+  spec.seed = seed;
+  return spec;
+}
+
 SmoothTrajectory::SmoothTrajectory(const TrajectorySpec& spec) : spec_(spec) {
   if (!(spec.speed_mps > 0.0) || !std::isfinite(spec.speed_mps)) {
     MCVO_THROW_INPUT("trajectory: speed_mps must be positive and finite, got ", spec.speed_mps);

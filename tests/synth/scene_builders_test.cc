@@ -50,7 +50,9 @@ double NearestAround(const SceneWithRoute& s, const Vector3d& p) {
 }
 
 TEST(SceneBuildersTest, EveryScenBuildsWithARoute) {
-  for (const std::string name : {"urban", "indoor", "open"}) {
+  EXPECT_EQ(SceneNames(),
+            (std::vector<std::string>{"urban", "urban_block", "urban_repeated", "indoor", "open"}));
+  for (const std::string& name : SceneNames()) {
     const SceneWithRoute s = BuildScene(name, 1);
     EXPECT_EQ(s.name, name);
     EXPECT_GE(s.waypoints.size(), 2u);
@@ -70,12 +72,13 @@ TEST(SceneBuildersTest, UnknownSceneThrows) {
     BuildScene("forest", 0);
     FAIL() << "no exception";
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), "unknown scene 'forest' (known: urban, indoor, open)");
+    EXPECT_EQ(std::string(e.what()),
+              "unknown scene 'forest' (known: urban, urban_block, urban_repeated, indoor, open)");
   }
 }
 
 TEST(SceneBuildersTest, DeterministicForASeed) {
-  for (const std::string name : {"urban", "indoor", "open"}) {
+  for (const std::string& name : SceneNames()) {
     const SceneWithRoute a = BuildScene(name, 9), b = BuildScene(name, 9), c = BuildScene(name, 10);
     EXPECT_EQ(SceneSummary(a), SceneSummary(b));
     EXPECT_EQ(a.waypoints, b.waypoints);

@@ -157,13 +157,32 @@ struct SceneWithRoute {
 
 // Scene builders. Deterministic for a seed.
 // urban: a grid of streets with building facades on both sides,
-//   intersections, turns; the route returns to an earlier place (loop).
+//   intersections, turns; the route returns to an earlier place (loop):
+//   a closed 1.2 km route with 6 left and 2 right turns.
+// urban_block: the same city generator (facades, intersections, moving
+//   cars) on a smaller grid; the route is a short closed lap around one
+//   block (counter-clockwise, 4 left turns; rig path about 290-360 m, lap
+//   about 53 s). Driven more than once (a sequence longer than the lap), it
+//   revisits every place: the loop-closure test scene.
+// urban_repeated: a regular grid whose buildings all wear the same
+//   kUrbanRepeatedFacadeTextures facade textures (and one shop-front
+//   design; no posters, no trees), so many places look alike; the route is
+//   open (a staircase of 5 blocks, 2 left and 2 right turns, rig path about
+//   470-490 m) and never comes back near an earlier place: every match
+//   between its frames at different places is a false loop.
 // indoor: corridors and a lab, long textureless wall segments.
 // open: sparse, distant structure on open terrain.
 SceneWithRoute BuildUrbanScene(uint64_t seed);
+SceneWithRoute BuildUrbanBlockScene(uint64_t seed);
+SceneWithRoute BuildUrbanRepeatedScene(uint64_t seed);
 SceneWithRoute BuildIndoorScene(uint64_t seed);
 SceneWithRoute BuildOpenScene(uint64_t seed);
-// "urban", "indoor", "open"; throws InputError listing the names otherwise.
+// Distinct (material, texture seed) pairs of the brick and plaster facades
+// in urban_repeated (one plaster and one brick design).
+inline constexpr int kUrbanRepeatedFacadeTextures = 2;
+// The names BuildScene knows: urban, urban_block, urban_repeated, indoor, open.
+const std::vector<std::string>& SceneNames();
+// One of SceneNames(); throws InputError listing the names otherwise.
 SceneWithRoute BuildScene(const std::string& name, uint64_t seed);
 
 // Route statistics: length of the waypoint polyline (closing segment

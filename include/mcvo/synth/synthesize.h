@@ -10,6 +10,11 @@
 //   DIR/structure/scene_quads.csv the static 3-D scene (textured rectangles)
 //   DIR/meta.json                 generator settings, for reproduction
 //
+// Frames past the end of the route: on a closed route (urban, urban_block,
+// indoor) the rig drives the loop again, lap after lap, and the pose at
+// t + lap is exactly the pose at t (SmoothTrajectory::WorldFromRig); on an
+// open route (urban_repeated, open) it stands still at the end.
+//
 // The whole folder is written under a temporary name beside DIR and renamed
 // when complete: an interrupted run leaves no DIR that looks complete.
 #pragma once
@@ -41,10 +46,14 @@ const SynthPreset& FindPreset(const std::string& preset_name);
 struct SynthOptions {
   std::string preset;              // either a preset ...
   std::filesystem::path rig_path;  // ... or a rig.json (then scene is required)
-  std::string scene;               // urban|indoor|open; default: the preset's
-  int frames = 0;                  // 0: the whole route once
-  uint64_t seed = 0;               // scene layout, trajectory variation, noise
-  double image_scale = 1.0;        // shrinks images and intrinsics together
+  std::string scene;               // one of SceneNames(); default: the preset's
+  int frames = 0;                  // 0: the whole route once (or `laps` of it)
+  // Instead of frames: this many traversals of the route, frames =
+  // floor(laps x lap duration x frame rate) (at least 1); more than 1 only on
+  // closed routes. 0: not used. 1 gives the same frames as frames = 0.
+  double laps = 0.0;
+  uint64_t seed = 0;         // scene layout, trajectory variation, noise
+  double image_scale = 1.0;  // shrinks images and intrinsics together
   double frame_rate_hz = 10.0;
   int64_t first_t_ns = 1000000000;  // time stamp of frame 0
   bool force = false;               // replace a non-empty output folder
@@ -58,6 +67,9 @@ struct SynthSummary {
   int frames = 0;
   int cameras = 0;
   double route_length_m = 0.0;
+  bool route_closed = false;
+  double lap_seconds = 0.0;  // time to drive the route once
+  double laps = 0.0;         // frames x frame period / lap_seconds
   double megapixels_per_frame = 0.0;
   double render_seconds = 0.0;  // wall time spent rendering (log only, never in outputs)
 };

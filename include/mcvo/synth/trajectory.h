@@ -46,6 +46,11 @@ struct TrajectorySpec {
   uint64_t seed = 0;  // small pitch/roll/sway variation
 };
 
+// The trajectory `mcvo synth` drives through a scene: its route, closure,
+// motion style, cruise speed and rig height, 2.5 m/s^2 lateral acceleration,
+// the seed for the pose variation.
+TrajectorySpec RouteTrajectorySpec(const SceneWithRoute& scene, uint64_t seed);
+
 class SmoothTrajectory {
  public:
   // Throws InputError for a spec that cannot be driven (fewer than 2 distinct
@@ -54,13 +59,14 @@ class SmoothTrajectory {
   explicit SmoothTrajectory(const TrajectorySpec& spec);
 
   // Pose of the rig at time t (t = 0 at the start of the route). Times past
-  // the end: closed routes go round again, open routes stop at the end
-  // (the rig stands still). Negative times: the start pose. Open routes begin
+  // the end: closed routes go round again (the pose at t + DurationNs() is
+  // exactly the pose at t: the same computation on t modulo the lap), open
+  // routes stop at the end (the rig stands still). Negative times: the start pose. Open routes begin
   // at the first waypoint; closed routes at the point where the first
   // segment's straight part begins (the first waypoint itself when the route
   // is straight there). Thread-safe.
   Rigid3d WorldFromRig(int64_t t_ns) const;
-  // Time to traverse the route once, ns.
+  // Time to traverse the route once (one lap of a closed route), ns.
   int64_t DurationNs() const;
   double LengthM() const;
 
