@@ -68,6 +68,10 @@ struct Landmark {
   double inverse_depth = 0.0;
   bool triangulated = false;
   std::vector<Observation> observations;  // the anchor's included
+  // Position when the last keyframe that used it left the window: the map's
+  // position when the landmark is no longer triangulated when it leaves (its
+  // observations left the window one by one).
+  std::optional<Eigen::Vector3d> map_position;
 };
 
 }  // namespace
@@ -160,8 +164,8 @@ struct Estimator::Impl {
 
   // A keyframe leaving the estimator, with its observations of the
   // landmarks the BA uses.
-  KeyframeEstimate FinishedKeyframe(const Frame* frame) const {
-    KeyframeEstimate out{frame->frame_index, frame->t_ns, frame->segment, frame->WorldFromRig(), {}};
+  KeyframeEstimate FinishedKeyframe(const Frame* frame) {
+    KeyframeEstimate out{frame->frame_index, frame->t_ns, frame->segment, frame->WorldFromRig(), {}, {}};
     for (int c = 0; c < static_cast<int>(frame->obs.cameras.size()); ++c) {
       for (const FeatureObservation& f : frame->obs.cameras[c]) {
         auto it = landmarks.find(f.id);
@@ -169,7 +173,10 @@ struct Estimator::Impl {
         const bool observed =
             std::any_of(it->second.observations.begin(), it->second.observations.end(),
                         [&](const Observation& ob) { return ob.frame == frame && ob.camera == c; });
-        if (observed) out.observations.push_back({c, static_cast<int64_t>(f.id), f.pixel});
+        if (!observed) continue;
+        out.observations.push_back({c, static_cast<int64_t>(f.id), f.pixel});
+        out.observation_points.push_back(LandmarkInWorld(it->second));
+        it->second.map_position = out.observation_points.back();
       }
     }
     return out;
@@ -178,7 +185,11 @@ struct Estimator::Impl {
   // Every triangulated landmark leaves (new segment, end of run).
   void FinishAllLandmarks() {
     for (const auto& [id, lm] : landmarks) {
-      if (lm.triangulated) finished_landmarks.push_back({static_cast<int64_t>(id), LandmarkInWorld(lm)});
+      if (lm.triangulated) {
+        finished_landmarks.push_back({static_cast<int64_t>(id), LandmarkInWorld(lm)});
+      } else if (lm.map_position) {
+        finished_landmarks.push_back({static_cast<int64_t>(id), *lm.map_position});
+      }
     }
   }
 
@@ -314,7 +325,11 @@ struct Estimator::Impl {
                                            [&](const Observation& ob) { return ob.frame == frame; }),
                             lm.observations.end());
       if (lm.observations.empty()) {
-        if (point) finished_landmarks.push_back({static_cast<int64_t>(it->first), *point});
+        if (point) {
+          finished_landmarks.push_back({static_cast<int64_t>(it->first), *point});
+        } else if (lm.map_position) {
+          finished_landmarks.push_back({static_cast<int64_t>(it->first), *lm.map_position});
+        }
         it = landmarks.erase(it);
         continue;
       }

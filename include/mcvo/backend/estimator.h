@@ -130,6 +130,9 @@ struct KeyframeEstimate {
   // the window (camera then feature order); the landmarks come from
   // TakeFinishedLandmarks. For the sparse map (colmap/sparse_map.h).
   std::vector<MapObservation> observations;
+  // The observed landmarks' positions when the keyframe left (parallel to
+  // observations): what loop closure matches against.
+  std::vector<Eigen::Vector3d> observation_points;
 };
 
 class Estimator {
