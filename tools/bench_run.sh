@@ -55,9 +55,37 @@ if [[ -f "$MODEL" ]]; then
   run 4cam_xfeat_short config/kitti360_4cam.json "$DETECTOR_FRAMES" --detector xfeat --model "$MODEL"
 fi
 
-python3 - "$SCRATCH" <<'PY'
-import json, sys, os
-scratch = sys.argv[1]
+python3 - "$SCRATCH" "$SEQ" <<'PY'
+import json, sys, os, math
+scratch, seq = sys.argv[1], sys.argv[2]
+
+
+def read_tum(path):
+    poses = {}
+    for line in open(path):
+        if line.startswith("#") or not line.strip():
+            continue
+        v = line.split()
+        poses[round(float(v[0]), 3)] = tuple(map(float, v[1:4]))
+    return poses
+
+
+gt = read_tum(os.path.join(seq, "groundtruth.tum"))
+
+
+def local_scale_range(run_dir, step=50):
+    """Min and max over 50-frame windows of estimated / true distance between the window's ends."""
+    est = read_tum(os.path.join(run_dir, "trajectory.tum"))
+    times = sorted(t for t in est if t in gt)
+    ratios = []
+    for i in range(0, len(times) - step, step):
+        a, b = times[i], times[i + step]
+        true = math.dist(gt[a], gt[b])
+        if true > 1.0:
+            ratios.append(math.dist(est[a], est[b]) / true)
+    return (min(ratios), max(ratios)) if ratios else (float("nan"), float("nan"))
+
+
 rows = []
 for name in ["4cam", "3cam", "2cam", "4cam_shi_short", "4cam_orb_short", "4cam_xfeat_short"]:
     path = os.path.join(scratch, name, "run.json")
@@ -70,7 +98,12 @@ for name in ["4cam", "3cam", "2cam", "4cam_shi_short", "4cam_orb_short", "4cam_x
                      path_m=r.get("gt_path_length_m", 0.0), ate_m=r.get("ate_rmse_m", float("nan")),
                      ate_pct=r.get("ate_percent_of_path", float("nan")),
                      scale_pct=r.get("scale_error_percent", float("nan")), fps=t["frames_per_second"],
-                     frontend_ms=1000 * t["frontend_s"], backend_ms=1000 * t["backend_s"]))
+                     frontend_ms=1000 * t["frontend_s"], backend_ms=1000 * t["backend_s"],
+                     local_scale_min=local_scale_range(os.path.join(scratch, name))[0],
+                     local_scale_max=local_scale_range(os.path.join(scratch, name))[1],
+                     colmap_points=run.get("colmap", {}).get("points", 0),
+                     colmap_error_px=run.get("colmap", {}).get("mean_reprojection_error_px", float("nan")),
+                     colmap_export_s=t.get("colmap_export_s_total", 0.0)))
 with open("results/run_benchmark.csv", "w") as f:
     keys = list(rows[0].keys())
     f.write(",".join(keys) + "\n")
@@ -80,13 +113,19 @@ lines = ["# `mcvo run` on the synthetic urban route (tools/bench_run.sh)", "",
          "kitti360 rig, half resolution, 1575 frames at 10 Hz (1.18 km closed route, 7 corners), "
          "image noise 1 grey level. ATE: SE3 alignment (no scale fitted), rmse over the posed frames, "
          "as % of the ground-truth path over those frames. Scale error: 100 |1/s - 1| of the Sim3 fit. "
-         "fps: wall clock of the whole run on 2 cores (decoding + frontend + back end), not deterministic.", "",
-         "| run | cameras | detector | frames (posed) | segments | path m | ATE m | ATE % | scale error % | fps | frontend ms/frame | back end ms/frame |",
-         "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+         "Local scale: min and max over 50-frame windows of estimated / true distance between the window's ends "
+         "(how far the scale wanders along the route). "
+         "fps: wall clock of the whole run on 2 cores (decoding + frontend + back end), not deterministic; "
+         "writing the outputs afterwards is not in it (the COLMAP export's seconds are listed, with its points "
+         "and mean reprojection error as `colmap model_analyzer` prints it).", "",
+         "| run | cameras | detector | frames (posed) | segments | path m | ATE m | ATE % | scale error % | local scale | fps | frontend ms/frame | back end ms/frame | COLMAP points (error px, export s) |",
+         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 for r in rows:
     lines.append(f"| {r['name']} | {r['cameras']} | {r['detector']} | {r['frames']} ({r['posed']}) | {r['segments']} | "
-                 f"{r['path_m']:.1f} | {r['ate_m']:.3f} | {r['ate_pct']:.3f} | {r['scale_pct']:.3f} | {r['fps']:.2f} | "
-                 f"{r['frontend_ms']:.1f} | {r['backend_ms']:.1f} |")
+                 f"{r['path_m']:.1f} | {r['ate_m']:.3f} | {r['ate_pct']:.3f} | {r['scale_pct']:.3f} | "
+                 f"{r['local_scale_min']:.3f}-{r['local_scale_max']:.3f} | {r['fps']:.2f} | "
+                 f"{r['frontend_ms']:.1f} | {r['backend_ms']:.1f} | "
+                 f"{r['colmap_points']} ({r['colmap_error_px']:.2f}, {r['colmap_export_s']:.1f}) |")
 open("results/run_benchmark.md", "w").write("\n".join(lines) + "\n")
 print("\n".join(lines))
 PY

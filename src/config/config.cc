@@ -131,13 +131,43 @@ void Visit(V& v, DatasetSelectionOptions* o) {
 }
 
 template <typename V>
+void Visit(V& v, PoseGraphOptions* o) {
+  v.Field("sim3", &o->sim3);
+  v.Field("odometry_rotation_sigma_deg_per_m", &o->odometry_rotation_sigma_deg_per_m);
+  v.Field("odometry_translation_sigma_per_m", &o->odometry_translation_sigma_per_m);
+  v.Field("odometry_rotation_sigma_floor_deg", &o->odometry_rotation_sigma_floor_deg);
+  v.Field("odometry_translation_sigma_floor_m", &o->odometry_translation_sigma_floor_m);
+  v.Field("odometry_scale_sigma_per_m", &o->odometry_scale_sigma_per_m);
+  v.Field("odometry_scale_sigma_floor", &o->odometry_scale_sigma_floor);
+  v.Field("loop_rotation_sigma_deg", &o->loop_rotation_sigma_deg);
+  v.Field("loop_translation_sigma_m", &o->loop_translation_sigma_m);
+  v.Field("loop_scale_sigma", &o->loop_scale_sigma);
+  v.Field("loop_loss_scale", &o->loop_loss_scale);
+  v.Field("loop_loss_stages", &o->loop_loss_stages);
+  v.Field("loop_loss_stage_factor", &o->loop_loss_stage_factor);
+  v.Field("max_iterations", &o->max_iterations);
+}
+
+template <typename V>
 void Visit(V& v, LoopOptions* o) {
   v.Field("enabled", &o->enabled);
   v.Field("vocabulary_path", &o->vocabulary_path);
-  v.Field("features_per_camera", &o->features_per_camera);
-  v.Field("exclude_recent_keyframes", &o->exclude_recent_keyframes);
-  v.Field("min_score", &o->min_score);
-  v.Field("min_camera_fraction", &o->min_camera_fraction);
+  LoopClosureOptions& c = o->closure;
+  v.Field("features_per_camera", &c.features_per_camera);
+  v.Field("exclude_recent_keyframes", &c.exclude_recent_keyframes);
+  v.Field("min_score", &c.min_score);
+  v.Field("min_normalized_score", &c.min_normalized_score);
+  v.Field("max_candidates", &c.max_candidates);
+  v.Field("match_ratio", &c.match_ratio);
+  v.Field("max_match_distance", &c.max_match_distance);
+  v.Field("pnp_threshold_px", &c.pnp_threshold_px);
+  v.Field("pnp_max_iterations", &c.pnp_max_iterations);
+  v.Field("min_inliers", &c.min_inliers);
+  v.Field("min_camera_inliers", &c.min_camera_inliers);
+  v.Field("min_camera_fraction", &c.min_camera_fraction);
+  v.Field("consistency_window", &c.consistency_window);
+  v.Field("candidate_neighbours", &c.candidate_neighbours);
+  v.Section("pose_graph", &o->pose_graph);
 }
 
 template <typename V>

@@ -22,11 +22,11 @@ void DatasetSelectionOptions::Check() const {
 }
 
 void LoopOptions::Check() const {
-  CheckAtLeast("/loop/features_per_camera", features_per_camera, 1);
-  CheckAtLeast("/loop/exclude_recent_keyframes", exclude_recent_keyframes, 0);
-  CheckInRange("/loop/min_score", min_score, 0.0, 1.0);
-  CheckInRange("/loop/min_camera_fraction", min_camera_fraction, 0.0, 1.0);
+  closure.Check();
+  pose_graph.Check();
 }
+
+std::string DefaultVocabularyPath() { return MCVO_DEFAULT_VOCABULARY; }
 
 void ColmapOutputOptions::Check() const {
   export_options.Check();

@@ -484,7 +484,7 @@ std::optional<std::string> RunOutOfDateReason(const fs::path& run_dir, const Bat
   if (!run->contains("inputs") || !(*run)["inputs"].is_object())
     return std::string("run.json lists no inputs");
   const Json& recorded = (*run)["inputs"];
-  const auto current = HashRunInputs(index, spec.tracks, frames);
+  const auto current = HashRunInputs(index, spec.tracks, frames, RunVocabularyPath(options));
   if (recorded.size() != current.size()) return std::string("inputs changed");
   for (const auto& [key, hash] : current) {
     if (!recorded.contains(key) || recorded[key] != hash) return "inputs changed (" + key + ")";

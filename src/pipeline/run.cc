@@ -15,6 +15,7 @@
 #include <utility>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "mcvo/backend/estimator.h"
 #include "mcvo/colmap/colmap_model.h"
@@ -26,6 +27,9 @@
 #include "mcvo/io/json_util.h"
 #include "mcvo/io/rig_io.h"
 #include "mcvo/io/trajectory_io.h"
+#include "mcvo/loop/loop_closer.h"
+#include "mcvo/loop/pose_graph.h"
+#include "mcvo/loop/vocabulary.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
@@ -208,11 +212,123 @@ SparseMap BuildSparseMap(const DatasetIndex& index, const std::vector<KeyframeEs
   return map;
 }
 
+// Loop closure over the finished keyframes (in frame order): each keyframe
+// goes into the bag-of-words database with its images and landmarks and is
+// verified against earlier places; accepted loops and the odometry between
+// consecutive keyframes form the pose graph.
+struct LoopOutcome {
+  std::vector<LoopAttempt> attempts;
+  int accepted = 0;
+  bool applied = false;                 // the pose graph ran and its result is used
+  std::vector<Rigid3d> keyframe_after;  // per keyframe (== before when not applied)
+  PoseGraphResult graph;
+  LoopTiming timing;
+  double image_seconds = 0.0;
+  double pose_graph_seconds = 0.0;
+};
+
+LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
+                       const Vocabulary& vocabulary, const LoopOptions& options, int threads) {
+  LoopOutcome out;
+  const Rig& rig = index.rig;
+  LoopCloser closer(rig, index.masks, vocabulary, options.closure, threads);
+  for (const KeyframeEstimate& kf : keyframes) {
+    LoopKeyframe lk;
+    lk.frame_index = kf.frame_index;
+    lk.t_ns = kf.t_ns;
+    lk.world_from_rig = kf.world_from_rig;
+    const Clock::time_point start = Clock::now();
+    lk.images.resize(static_cast<size_t>(rig.NumCameras()));
+    if (kf.frame_index >= 0 && kf.frame_index < static_cast<int>(index.frames.size())) {
+      // Decoded in parallel over cameras, each into its own slot.
+      const std::vector<std::filesystem::path>& paths =
+          index.frames[static_cast<size_t>(kf.frame_index)].images;
+      const int n = static_cast<int>(std::min(paths.size(), lk.images.size()));
+      const int workers = std::max(1, std::min(threads, n));
+      std::vector<std::thread> readers;
+      for (int w = 0; w < workers; ++w) {
+        readers.emplace_back([&, w] {
+          for (int c = w; c < n; c += workers) {
+            if (!paths[c].empty()) lk.images[c] = cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
+          }
+        });
+      }
+      for (std::thread& reader : readers) reader.join();
+      for (int c = 0; c < n; ++c) {
+        if (!paths[c].empty() && lk.images[c].empty()) {
+          MCVO_THROW_INPUT(paths[c].string(), ": cannot read the image (loop closure)");
+        }
+      }
+    }
+    out.image_seconds += SecondsSince(start);
+    for (size_t k = 0; k < kf.observations.size() && k < kf.observation_points.size(); ++k) {
+      const MapObservation& ob = kf.observations[k];
+      lk.points.push_back({ob.camera, ob.landmark_id, ob.pixel, kf.observation_points[k]});
+    }
+    for (LoopAttempt& attempt : closer.AddKeyframe(lk)) {
+      out.accepted += attempt.accepted ? 1 : 0;
+      out.attempts.push_back(std::move(attempt));
+    }
+  }
+  out.timing = closer.timing();
+  for (const KeyframeEstimate& kf : keyframes) out.keyframe_after.push_back(kf.world_from_rig);
+  if (out.accepted == 0) return out;
+
+  std::vector<PoseGraphEdge> edges;
+  for (size_t k = 1; k < keyframes.size(); ++k) {
+    PoseGraphEdge edge;
+    edge.from = static_cast<int>(k - 1);
+    edge.to = static_cast<int>(k);
+    edge.from_T_to = keyframes[k - 1].world_from_rig.Inverse() * keyframes[k].world_from_rig;
+    edges.push_back(edge);
+  }
+  for (const LoopAttempt& attempt : out.attempts) {
+    if (!attempt.accepted) continue;
+    PoseGraphEdge edge;
+    edge.from = attempt.candidate;
+    edge.to = attempt.query;
+    edge.from_T_to = attempt.candidate_from_query;
+    edge.loop = true;
+    edges.push_back(edge);
+  }
+  const Clock::time_point start = Clock::now();
+  out.graph = OptimizePoseGraph(out.keyframe_after, edges, options.pose_graph);
+  out.pose_graph_seconds = SecondsSince(start);
+  if (out.graph.ok) {
+    out.keyframe_after = out.graph.world_from_node;
+    out.applied = true;
+  } else {
+    MCVO_LOG(kWarning, "run: loop closure: pose graph failed (", out.graph.reason,
+             "); trajectory left as is");
+  }
+  return out;
+}
+
+std::string LoopsCsv(const std::vector<LoopAttempt>& attempts) {
+  std::string csv =
+      "query_keyframe,query_frame,candidate_keyframe,candidate_frame,score,normalized_score,matches,inliers,"
+      "cameras_with_inliers,verified,accepted,correction_m,correction_deg,reason\n";
+  for (const LoopAttempt& a : attempts) {
+    csv += StrCat(a.query, ",", a.query_frame, ",", a.candidate, ",", a.candidate_frame, ",",
+                  FormatDouble(a.score), ",", FormatDouble(a.normalized_score), ",", a.matches, ",",
+                  a.inliers, ",", a.cameras_with_inliers, ",", a.verified ? 1 : 0, ",", a.accepted ? 1 : 0,
+                  ",", FormatDouble(a.correction_m), ",", FormatDouble(a.correction_deg), ",",
+                  CsvQuote(a.reason), "\n");
+  }
+  return csv;
+}
+
 }  // namespace
+
+std::filesystem::path RunVocabularyPath(const PipelineOptions& options) {
+  if (!options.loop.enabled) return {};
+  return options.loop.vocabulary_path.empty() ? DefaultVocabularyPath() : options.loop.vocabulary_path;
+}
 
 std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetIndex& index,
                                                                const std::filesystem::path& tracks,
-                                                               int frames) {
+                                                               int frames,
+                                                               const std::filesystem::path& vocabulary) {
   std::vector<std::pair<std::string, std::string>> inputs;
   inputs.emplace_back("rig_sha256", Sha256Hex(RigToJson(index.rig, index.root)));
   if (!tracks.empty()) {
@@ -229,6 +345,7 @@ std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetInde
     }
     inputs.emplace_back("images_sha256", images.HexDigest());
   }
+  if (!vocabulary.empty()) inputs.emplace_back("vocabulary_sha256", Sha256File(vocabulary));
   return inputs;
 }
 
@@ -270,6 +387,11 @@ RunSummary RunPipeline(const RunRequest& request) {
     tracker = std::make_unique<MultiCameraTracker>(rig, index.masks, options.frontend, threads);
   }
   Estimator estimator(rig, options.initializer, options.backend, threads);
+  // Loop closure's vocabulary, read now so that a bad file stops the run
+  // before any work.
+  const std::filesystem::path vocabulary_path = RunVocabularyPath(options);
+  std::optional<Vocabulary> vocabulary;
+  if (options.loop.enabled) vocabulary = Vocabulary::Load(vocabulary_path);
 
   // Staging folder, renamed onto out_dir when everything is written.
   const std::filesystem::path absolute_out = std::filesystem::absolute(request.out_dir).lexically_normal();
@@ -390,6 +512,57 @@ RunSummary RunPipeline(const RunRequest& request) {
   for (KeyframeEstimate& kf : estimator.Finish()) keyframes.push_back(std::move(kf));
   for (const MapLandmark& lm : estimator.TakeFinishedLandmarks()) landmarks[lm.id] = lm.position_world;
   for (ScaleLogEntry& entry : estimator.TakeScaleLog()) scale_log.push_back(std::move(entry));
+  std::stable_sort(
+      keyframes.begin(), keyframes.end(),
+      [](const KeyframeEstimate& a, const KeyframeEstimate& b) { return a.frame_index < b.frame_index; });
+  const double vo_seconds = SecondsSince(run_start);
+
+  // Loop closure, then every pose and landmark moved with its keyframe's
+  // correction.
+  LoopOutcome loops;
+  if (vocabulary) loops = CloseLoops(index, keyframes, *vocabulary, options.loop, threads);
+  if (vocabulary) {
+    int verified = 0;
+    for (const LoopAttempt& a : loops.attempts) verified += a.verified ? 1 : 0;
+    MCVO_LOG(kInfo, "run: loop closure: ", keyframes.size(), " keyframes, ", verified,
+             " candidates verified, ", loops.accepted, " loop(s) accepted",
+             loops.applied ? ", pose graph applied" : "");
+  }
+  summary.loops_accepted = loops.accepted;
+  std::map<int, StampedPose> poses_vo;
+  std::vector<KeyframeEstimate> keyframes_vo;
+  if (loops.applied) {
+    poses_vo = poses;
+    keyframes_vo = keyframes;
+    std::vector<int64_t> node_t_ns;
+    std::vector<Rigid3d> node_before;
+    for (const KeyframeEstimate& kf : keyframes) {
+      node_t_ns.push_back(kf.t_ns);
+      node_before.push_back(kf.world_from_rig);
+    }
+    std::vector<int64_t> pose_t_ns;
+    std::vector<Rigid3d> pose_before;
+    for (const auto& [frame_index, pose] : poses) {
+      pose_t_ns.push_back(pose.t_ns);
+      pose_before.push_back(pose.world_from_body);
+    }
+    const std::vector<Rigid3d> pose_after =
+        CorrectPoses(node_t_ns, node_before, loops.keyframe_after, pose_t_ns, pose_before);
+    size_t k = 0;
+    for (auto& [frame_index, pose] : poses) pose.world_from_body = pose_after[k++];
+    // A landmark moves with the last keyframe that observed it (its final
+    // position was estimated while that keyframe was in the window).
+    std::map<int64_t, size_t> last_observer;
+    for (size_t i = 0; i < keyframes.size(); ++i) {
+      for (const MapObservation& ob : keyframes[i].observations) last_observer[ob.landmark_id] = i;
+    }
+    for (auto& [id, position] : landmarks) {
+      auto it = last_observer.find(id);
+      if (it == last_observer.end()) continue;
+      position = loops.keyframe_after[it->second] * (node_before[it->second].Inverse() * position);
+    }
+    for (size_t i = 0; i < keyframes.size(); ++i) keyframes[i].world_from_rig = loops.keyframe_after[i];
+  }
   int map_observations_dropped = 0;
   const SparseMap map =
       BuildSparseMap(index, keyframes, landmarks, options.backend, &map_observations_dropped);
@@ -421,6 +594,26 @@ RunSummary RunPipeline(const RunRequest& request) {
   WriteTrajectory(dir / "trajectory_kitti.txt", trajectory, TrajectoryFormat::kKittiIndexed);
   WriteTrajectory(dir / "trajectory_euroc.csv", trajectory, TrajectoryFormat::kEuroc);
   WriteTrajectory(dir / "keyframes.tum", keyframe_trajectory, TrajectoryFormat::kTum);
+  Trajectory trajectory_vo;
+  if (loops.applied) {
+    // Before loop closure: the odometry's poses.
+    trajectory_vo.has_time = true;
+    trajectory_vo.has_frame_index = true;
+    for (const auto& [frame_index, pose] : poses_vo) trajectory_vo.poses.push_back(pose);
+    WriteTrajectory(dir / "trajectory_vo.tum", trajectory_vo, TrajectoryFormat::kTum);
+    Trajectory keyframes_before;
+    keyframes_before.has_time = true;
+    keyframes_before.has_frame_index = true;
+    for (const KeyframeEstimate& kf : keyframes_vo) {
+      StampedPose pose;
+      pose.t_ns = kf.t_ns;
+      pose.frame_index = kf.frame_index;
+      pose.world_from_body = kf.world_from_rig;
+      keyframes_before.poses.push_back(pose);
+    }
+    WriteTrajectory(dir / "keyframes_vo.tum", keyframes_before, TrajectoryFormat::kTum);
+  }
+  if (vocabulary) WriteFileAtomic(dir / "loops.csv", LoopsCsv(loops.attempts));
   std::string scale_csv = "frame,t_ns,segment,event,applied";
   for (const Camera& camera : rig.cameras) scale_csv += ",scale_" + camera.name;
   scale_csv +=
@@ -442,7 +635,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   WriteFileAtomic(dir / "frame_stats.csv", stats_csv);
   WriteFileAtomic(dir / "timing.csv", timing_csv);
 
-  std::optional<EvalResult> eval_result;
+  std::optional<EvalResult> eval_result, eval_vo;
   if (index.ground_truth && trajectory.poses.size() >= MinPosesForAlignment(options.eval.align)) {
     try {
       eval_result = EvaluateTrajectory(*index.ground_truth, trajectory, options.eval,
@@ -456,6 +649,12 @@ RunSummary RunPipeline(const RunRequest& request) {
       summary.ate_percent_of_path =
           summary.gt_path_length_m > 0 ? 100.0 * summary.ate_rmse_m / summary.gt_path_length_m : 0.0;
       summary.scale_error_percent = result.scale.scale_error_percent;
+      if (loops.applied) {
+        eval_vo = EvaluateTrajectory(*index.ground_truth, trajectory_vo, options.eval,
+                                     (index.root / "groundtruth").string(), "trajectory_vo.tum");
+        CreateDirectories(dir / "eval_vo");
+        WriteEvalOutputs(dir / "eval_vo", *eval_vo);
+      }
     } catch (const InputError& e) {
       MCVO_LOG(kWarning, "run: evaluation skipped: ", e.what());
     }
@@ -516,9 +715,14 @@ RunSummary RunPipeline(const RunRequest& request) {
     report.title = StrCat("mcvo run: ", index.name, ", ", rig.NumCameras(), " camera(s)");
     if (eval_result) {
       report.eval = &*eval_result;
+      if (loops.applied) {
+        report.estimate_before_loop_closure =
+            ApplyAlignment(trajectory_vo, eval_result->gt_world_from_est_world);
+      }
       report.ground_truth = *index.ground_truth;
     } else {
       report.estimate = trajectory;
+      if (loops.applied) report.estimate_before_loop_closure = trajectory_vo;
     }
     for (const ScaleLogEntry& e : scale_log) {
       report.scale_log.push_back(
@@ -553,7 +757,8 @@ RunSummary RunPipeline(const RunRequest& request) {
   dataset["cameras"] = cameras;
   run["dataset"] = dataset;
   nlohmann::ordered_json inputs;
-  for (const auto& [key, hash] : HashRunInputs(index, request.tracks, total_frames)) inputs[key] = hash;
+  for (const auto& [key, hash] : HashRunInputs(index, request.tracks, total_frames, vocabulary_path))
+    inputs[key] = hash;
   run["inputs"] = inputs;
   nlohmann::ordered_json outputs;
   std::vector<std::filesystem::path> files;
@@ -587,6 +792,17 @@ RunSummary RunPipeline(const RunRequest& request) {
   result["sparse_map_keyframes"] = map.keyframes.size();
   result["sparse_map_landmarks"] = map.landmarks.size();
   result["sparse_map_observations_dropped"] = map_observations_dropped;
+  if (vocabulary) {
+    int verified = 0;
+    for (const LoopAttempt& a : loops.attempts) verified += a.verified ? 1 : 0;
+    result["loop_candidates_verified"] = verified;
+    result["loops_accepted"] = loops.accepted;
+    result["loop_closure_applied"] = loops.applied;
+    if (loops.applied && eval_vo) {
+      result["ate_rmse_m_before_loop_closure"] = eval_vo->ate_translation_m.rmse;
+      result["scale_error_percent_before_loop_closure"] = eval_vo->scale.scale_error_percent;
+    }
+  }
   run["result"] = result;
   if (!colmap_json.is_null()) run["colmap"] = colmap_json;
   nlohmann::ordered_json timing;
@@ -603,6 +819,15 @@ RunSummary RunPipeline(const RunRequest& request) {
   timing["scale_correction_s"] = totals.scale / n;
   timing["backend_s"] = totals.backend / n;
   timing["colmap_export_s_total"] = colmap_seconds;
+  timing["odometry_s_total"] = vo_seconds;
+  if (vocabulary) {
+    const double keyframe_count = std::max<size_t>(1, keyframes.size());
+    timing["loop_image_read_s_per_keyframe"] = loops.image_seconds / keyframe_count;
+    timing["loop_features_s_per_keyframe"] = loops.timing.features_s / keyframe_count;
+    timing["loop_query_s_per_keyframe"] = loops.timing.query_s / keyframe_count;
+    timing["loop_verification_s_per_keyframe"] = loops.timing.verification_s / keyframe_count;
+    timing["pose_graph_s_total"] = loops.pose_graph_seconds;
+  }
   run["timing"] = timing;
   WriteFileAtomic(dir / "run.json", io_internal::PrettyJson(run));
 

@@ -22,6 +22,8 @@
 #include "mcvo/eval/evaluate.h"
 #include "mcvo/frontend/frontend_options.h"
 #include "mcvo/initializer/initializer.h"
+#include "mcvo/loop/loop_closer.h"
+#include "mcvo/loop/pose_graph.h"
 #include "mcvo/util/enum_names.h"
 
 namespace mcvo {
@@ -39,16 +41,19 @@ struct DatasetSelectionOptions {
   void Check() const;
 };
 
+// Loop closure (loop/loop_closer.h, loop/pose_graph.h): the component's own
+// options, and where its vocabulary comes from.
 struct LoopOptions {
   bool enabled = true;
-  std::string vocabulary_path;  // empty: the built-in vocabulary
-  int features_per_camera = 500;
-  int exclude_recent_keyframes = 50;
-  double min_score = 0.015;
-  double min_camera_fraction = 0.5;  // verification needs more than this fraction of cameras
+  std::string vocabulary_path;  // empty: the built-in vocabulary (DefaultVocabularyPath())
+  LoopClosureOptions closure;   // keys directly under /loop
+  PoseGraphOptions pose_graph;  // /loop/pose_graph
 
   void Check() const;
 };
+
+// config/vocabulary_orb.bin of the source tree (docs/loop-closure.md).
+std::string DefaultVocabularyPath();
 
 // What `mcvo run` writes besides the trajectories, logs and run.json
 // (docs/run-outputs.md).

@@ -55,6 +55,7 @@ struct RunSummary {
   double ate_percent_of_path = 0.0;
   double scale_error_percent = 0.0;
   double gt_path_length_m = 0.0;
+  int loops_accepted = 0;
 };
 
 // Runs the pipeline. Bad input throws InputError / UsageError naming the file
@@ -67,8 +68,15 @@ RunSummary RunPipeline(const RunRequest& request);
 // `frames` frames, in frame and camera order; "missing" for a missing image).
 // Reads the input files but decodes nothing, so `mcvo batch` can tell
 // whether a finished run is up to date without running it again.
+// Then "vocabulary_sha256" when `vocabulary` is not empty (loop closure's
+// bag-of-words vocabulary: RunVocabularyPath).
 std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetIndex& index,
                                                                const std::filesystem::path& tracks,
-                                                               int frames);
+                                                               int frames,
+                                                               const std::filesystem::path& vocabulary = {});
+
+// The vocabulary file a run with these options reads: empty when loop
+// closure is off, the built-in one when none is configured.
+std::filesystem::path RunVocabularyPath(const PipelineOptions& options);
 
 }  // namespace mcvo

@@ -1,0 +1,135 @@
+// Loop closure (paper Sec. "Loop Closure"): one bag-of-words entry per
+// multi-camera keyframe, verification by a generalized absolute pose over
+// all cameras at once, and the loop edges for the pose graph (pose_graph.h).
+//
+// For each keyframe, in order (AddKeyframe):
+//  1. Features: ORB (FAST + rBRIEF, `features_per_camera`, inside the
+//     camera's mask) in every camera image, and ORB descriptors at the
+//     pixels of the keyframe's landmark observations (the back end's tracked
+//     features), which carry the landmarks' world positions.
+//  2. Bag of words of the features of all cameras together (one database
+//     entry per keyframe), so a place is found again whichever camera sees
+//     it (a street driven the other way: the left fisheye now sees what the
+//     right one saw).
+//  3. Query: the keyframes older than `exclude_recent_keyframes` with a BoW
+//     score of at least `min_score` and at least `min_normalized_score`
+//     times the query's score with the previous keyframe (DBoW2), best
+//     first; the best `max_candidates` are verified.
+//  4. Verification: the query's ORB features of all cameras are matched
+//     (Hamming, ratio test) to the candidate's landmarks and those of its
+//     neighbours in the keyframe sequence, then the rig pose is solved from
+//     all cameras at once (backend/rig_pnp.h: OpenGV GP3P in RANSAC + Ceres).
+//     Verified when there are at least `min_inliers` inliers and at least
+//     `min_camera_fraction` of the cameras that had features have
+//     `min_camera_inliers` inliers of their own.
+//  5. Consistency against repeated facades: a verified candidate becomes a
+//     loop only when the previous keyframe (or one of the last
+//     `consistency_window` keyframes) verified a candidate within
+//     `consistency_window` keyframes of this one: a real revisit is seen by
+//     consecutive keyframes at consecutive places; a look-alike facade
+//     rarely is.
+// The loop edge is candidate_from_query: the query rig pose in the
+// candidate's (drifted) map over the candidate's pose.
+//
+// Deterministic: features per camera are extracted in parallel into fixed
+// slots; everything else is sequential in keyframe order.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core/mat.hpp>
+
+#include "mcvo/camera/camera.h"
+#include "mcvo/geometry/rigid3d.h"
+#include "mcvo/loop/pose_graph.h"
+#include "mcvo/loop/vocabulary.h"
+
+namespace mcvo {
+
+struct LoopClosureOptions {
+  int features_per_camera = 500;
+  int exclude_recent_keyframes = 50;
+  double min_score = 0.015;
+  // Score over the query's score with the previous keyframe (DBoW2's
+  // normalisation): candidates below it are not verified.
+  double min_normalized_score = 0.0;
+  int max_candidates = 3;
+  double match_ratio = 0.8;       // Lowe's ratio test on Hamming distances
+  int max_match_distance = 64;    // bits
+  double pnp_threshold_px = 3.0;  // at focal 460
+  int pnp_max_iterations = 1000;
+  int min_inliers = 40;
+  int min_camera_inliers = 8;        // a camera "has inliers" with at least this many
+  double min_camera_fraction = 0.5;  // of the cameras that had features
+  int consistency_window = 3;        // keyframes (see 5.)
+  int candidate_neighbours = 2;      // landmarks of this many keyframes on each side of the candidate
+  // Throws InputError naming the field ("/loop/...").
+  void Check() const;
+};
+
+struct LoopKeyframe {
+  int frame_index = 0;
+  int64_t t_ns = 0;
+  Rigid3d world_from_rig;       // the odometry's pose
+  std::vector<cv::Mat> images;  // CV_8UC1 per rig camera; empty Mat: no image
+  struct Point {
+    int camera = 0;
+    int64_t landmark_id = 0;
+    Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+    Eigen::Vector3d point_in_world = Eigen::Vector3d::Zero();
+  };
+  std::vector<Point> points;  // the keyframe's observations of triangulated landmarks
+};
+
+// One verified (or rejected) candidate of one query keyframe: a line of loops.csv.
+struct LoopAttempt {
+  int query = 0;  // keyframe indices (order of AddKeyframe)
+  int candidate = 0;
+  int query_frame = 0;  // frame indices
+  int candidate_frame = 0;
+  double score = 0.0;             // BoW
+  double normalized_score = 0.0;  // over the query's score with the previous keyframe
+  int matches = 0;
+  int inliers = 0;
+  int cameras_with_inliers = 0;
+  bool verified = false;         // geometric verification passed
+  bool accepted = false;         // verified and consistent: a loop edge
+  std::string reason;            // why not accepted
+  Rigid3d candidate_from_query;  // when verified
+  double correction_m = 0.0;     // |odometry relative pose - loop relative pose|, translation
+  double correction_deg = 0.0;   // and rotation
+};
+
+struct LoopTiming {
+  double features_s = 0.0;      // ORB + BoW
+  double query_s = 0.0;         // database
+  double verification_s = 0.0;  // matching + rig PnP
+};
+
+class LoopCloser {
+ public:
+  // masks: per camera (CV_8UC1, 255 valid; empty: all valid). vocabulary:
+  // binary, 32-byte rows (ORB). threads: feature extraction over cameras.
+  LoopCloser(const Rig& rig, std::vector<cv::Mat> masks, Vocabulary vocabulary,
+             const LoopClosureOptions& options, int threads);
+  ~LoopCloser();
+  LoopCloser(const LoopCloser&) = delete;
+  LoopCloser& operator=(const LoopCloser&) = delete;
+
+  // Adds the next keyframe (in time order); returns the candidates it
+  // verified (accepted or not), best score first. Timing adds up in timing().
+  std::vector<LoopAttempt> AddKeyframe(const LoopKeyframe& keyframe);
+
+  int num_keyframes() const;
+  const LoopTiming& timing() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mcvo

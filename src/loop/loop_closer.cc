@@ -1,0 +1,397 @@
+#include "mcvo/loop/loop_closer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <thread>
+#include <utility>
+
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+
+#include "mcvo/backend/rig_pnp.h"
+#include "mcvo/util/error.h"
+#include "mcvo/util/option_checks.h"
+#include "mcvo/util/strings.h"
+
+namespace mcvo {
+namespace {
+
+constexpr double kFocalPx = 460.0;  // thresholds "at focal 460", as the back end's
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+}  // namespace
+
+void LoopClosureOptions::Check() const {
+  CheckAtLeast("/loop/features_per_camera", features_per_camera, 1);
+  CheckAtLeast("/loop/exclude_recent_keyframes", exclude_recent_keyframes, 0);
+  CheckInRange("/loop/min_score", min_score, 0.0, 1.0);
+  CheckAtLeast("/loop/min_normalized_score", min_normalized_score, 0.0);
+  CheckAtLeast("/loop/max_candidates", max_candidates, 1);
+  CheckInRange("/loop/match_ratio", match_ratio, 0.0, 1.0);
+  CheckAtLeast("/loop/max_match_distance", max_match_distance, 1);
+  CheckPositive("/loop/pnp_threshold_px", pnp_threshold_px);
+  CheckAtLeast("/loop/pnp_max_iterations", pnp_max_iterations, 1);
+  CheckAtLeast("/loop/min_inliers", min_inliers, 6);
+  CheckAtLeast("/loop/min_camera_inliers", min_camera_inliers, 1);
+  CheckInRange("/loop/min_camera_fraction", min_camera_fraction, 0.0, 1.0);
+  CheckAtLeast("/loop/consistency_window", consistency_window, 0);
+  CheckAtLeast("/loop/candidate_neighbours", candidate_neighbours, 0);
+}
+
+struct LoopCloser::Impl {
+  // A keyframe's features, once extracted.
+  struct Features {
+    // 2-D features of all cameras: ORB detections and the landmark pixels.
+    std::vector<int> camera;
+    std::vector<Eigen::Vector3d> bearing;
+    cv::Mat descriptors;     // CV_8U, 32 bytes per row, one per feature
+    int num_detections = 0;  // the first rows are ORB detections (the BoW's words)
+    // Landmarks (rows of the landmark-pixel features): world point, id.
+    std::vector<int64_t> landmark_id;
+    std::vector<Eigen::Vector3d> landmark_point;
+    cv::Mat landmark_descriptors;
+    std::vector<bool> camera_has_features;
+  };
+
+  struct Entry {
+    int frame_index = 0;
+    Rigid3d world_from_rig;
+    std::vector<int64_t> landmark_id;
+    std::vector<Eigen::Vector3d> landmark_point;
+    cv::Mat landmark_descriptors;
+  };
+
+  Impl(const Rig& rig_in, std::vector<cv::Mat> masks_in, Vocabulary vocabulary_in,
+       const LoopClosureOptions& o, int threads_in)
+      : rig(rig_in),
+        masks(std::move(masks_in)),
+        vocabulary(std::move(vocabulary_in)),
+        options(o),
+        threads(std::max(1, threads_in)) {
+    options.Check();
+    if (vocabulary.kind() != DescriptorKind::kBinary || vocabulary.descriptor_size() != 32) {
+      MCVO_THROW_INPUT("loop closure needs a vocabulary of 32-byte binary (ORB) descriptors, got ",
+                       vocabulary.kind() == DescriptorKind::kBinary ? "binary" : "float", " of size ",
+                       vocabulary.descriptor_size());
+    }
+    masks.resize(static_cast<size_t>(rig.NumCameras()));
+    for (const Camera& camera : rig.cameras) cam_from_rig.push_back(camera.cam_from_rig);
+  }
+
+  const Rig rig;
+  std::vector<cv::Mat> masks;
+  const Vocabulary vocabulary;
+  const LoopClosureOptions options;
+  const int threads;
+  std::vector<Rigid3d> cam_from_rig;
+  std::vector<Entry> entries;
+  // Inverted file: word -> (keyframe, weight), keyframes ascending.
+  std::map<uint32_t, std::vector<std::pair<int, double>>> inverted;
+  // Verified (query, candidate) pairs, for the consistency test.
+  std::vector<std::pair<int, int>> verified;
+  LoopTiming timing;
+  BowVector previous_bow;
+
+  // One camera's ORB detections and descriptors at the landmark pixels.
+  struct CameraFeatures {
+    std::vector<cv::KeyPoint> detections;
+    cv::Mat detection_descriptors;
+    std::vector<int> point_index;  // of landmark keypoints kept by ORB (border)
+    cv::Mat point_descriptors;
+  };
+
+  CameraFeatures ExtractCamera(int camera, const LoopKeyframe& keyframe) const {
+    CameraFeatures out;
+    const cv::Mat& image = keyframe.images[static_cast<size_t>(camera)];
+    if (image.empty()) return out;
+    cv::Ptr<cv::ORB> orb = cv::ORB::create(options.features_per_camera);
+    const cv::Mat& mask = masks[static_cast<size_t>(camera)];
+    orb->detectAndCompute(image, mask.empty() || mask.size() != image.size() ? cv::noArray() : mask,
+                          out.detections, out.detection_descriptors);
+    std::vector<cv::KeyPoint> points;
+    for (size_t k = 0; k < keyframe.points.size(); ++k) {
+      const LoopKeyframe::Point& p = keyframe.points[k];
+      if (p.camera != camera) continue;
+      cv::KeyPoint kp(static_cast<float>(p.pixel.x()), static_cast<float>(p.pixel.y()), 31.0f);
+      kp.class_id = static_cast<int>(k);
+      points.push_back(kp);
+    }
+    if (!points.empty()) {
+      // Orientation and descriptor at the given pixels (level 0); ORB drops
+      // keypoints too close to the border: class_id says which remain.
+      orb->compute(image, points, out.point_descriptors);
+      for (const cv::KeyPoint& kp : points) out.point_index.push_back(kp.class_id);
+    }
+    return out;
+  }
+
+  Features Extract(const LoopKeyframe& keyframe) const {
+    const int n = rig.NumCameras();
+    std::vector<CameraFeatures> per_camera(static_cast<size_t>(n));
+    if (threads > 1 && n > 1) {
+      std::vector<std::thread> workers;
+      const int count = std::min(threads, n);
+      for (int w = 0; w < count; ++w) {
+        workers.emplace_back([&, w] {
+          for (int c = w; c < n; c += count) per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe);
+        });
+      }
+      for (std::thread& t : workers) t.join();
+    } else {
+      for (int c = 0; c < n; ++c) per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe);
+    }
+    Features f;
+    f.camera_has_features.assign(static_cast<size_t>(n), false);
+    std::vector<cv::Mat> detection_rows, point_rows;
+    auto add_2d = [&](int c, const cv::Point2f& pt) {
+      const std::optional<Eigen::Vector3d> bearing =
+          rig.cameras[static_cast<size_t>(c)].Unproject({pt.x, pt.y});
+      f.camera.push_back(c);
+      f.bearing.push_back(bearing ? bearing->normalized() : Eigen::Vector3d::Zero());
+    };
+    for (int c = 0; c < n; ++c) {
+      const CameraFeatures& cf = per_camera[static_cast<size_t>(c)];
+      for (const cv::KeyPoint& kp : cf.detections) add_2d(c, kp.pt);
+      if (!cf.detection_descriptors.empty()) detection_rows.push_back(cf.detection_descriptors);
+      f.camera_has_features[static_cast<size_t>(c)] = !cf.detections.empty();
+    }
+    f.num_detections = static_cast<int>(f.camera.size());
+    for (int c = 0; c < n; ++c) {
+      const CameraFeatures& cf = per_camera[static_cast<size_t>(c)];
+      for (size_t r = 0; r < cf.point_index.size(); ++r) {
+        const LoopKeyframe::Point& p = keyframe.points[static_cast<size_t>(cf.point_index[r])];
+        add_2d(c, cv::Point2f(static_cast<float>(p.pixel.x()), static_cast<float>(p.pixel.y())));
+        f.landmark_id.push_back(p.landmark_id);
+        f.landmark_point.push_back(p.point_in_world);
+      }
+      if (!cf.point_descriptors.empty()) point_rows.push_back(cf.point_descriptors);
+    }
+    cv::Mat detections, points;
+    if (!detection_rows.empty()) cv::vconcat(detection_rows, detections);
+    if (!point_rows.empty()) cv::vconcat(point_rows, points);
+    f.landmark_descriptors = points;
+    if (detections.empty()) {
+      f.descriptors = points;
+    } else if (points.empty()) {
+      f.descriptors = detections;
+    } else {
+      cv::vconcat(detections, points, f.descriptors);
+    }
+    return f;
+  }
+
+  // Keyframes (older than the exclusion) by BoW score, best first, at least min_score.
+  std::vector<std::pair<int, double>> Query(const BowVector& bow, int query) const {
+    const int last = query - options.exclude_recent_keyframes - 1;
+    std::vector<std::pair<int, double>> out;
+    if (last < 0) return out;
+    std::vector<double> sums(static_cast<size_t>(last) + 1, 0.0);
+    for (const auto& [word, q] : bow) {
+      auto it = inverted.find(word);
+      if (it == inverted.end()) continue;
+      for (const auto& [kf, b] : it->second) {
+        if (kf > last) break;
+        sums[static_cast<size_t>(kf)] += q + b - std::abs(q - b);
+      }
+    }
+    for (int kf = 0; kf <= last; ++kf) {
+      const double score = 0.5 * sums[static_cast<size_t>(kf)];
+      if (score >= options.min_score) out.emplace_back(kf, score);
+    }
+    std::stable_sort(out.begin(), out.end(),
+                     [](const auto& a, const auto& b) { return a.second > b.second; });
+    return out;
+  }
+
+  // Geometric verification of one candidate.
+  LoopAttempt Verify(const Features& query, int query_index, const LoopKeyframe& keyframe, int candidate,
+                     double score) const {
+    LoopAttempt attempt;
+    attempt.query = query_index;
+    attempt.candidate = candidate;
+    attempt.query_frame = keyframe.frame_index;
+    attempt.candidate_frame = entries[static_cast<size_t>(candidate)].frame_index;
+    attempt.score = score;
+    // The candidate's landmarks and its neighbours', one per landmark id
+    // (the candidate's own first).
+    std::vector<int> keyframes{candidate};
+    for (int d = 1; d <= options.candidate_neighbours; ++d) {
+      if (candidate - d >= 0) keyframes.push_back(candidate - d);
+      if (candidate + d < static_cast<int>(entries.size()) &&
+          candidate + d < query_index - options.exclude_recent_keyframes) {
+        keyframes.push_back(candidate + d);
+      }
+    }
+    std::map<int64_t, bool> seen;
+    std::vector<Eigen::Vector3d> points;
+    std::vector<cv::Mat> rows;
+    for (int kf : keyframes) {
+      const Entry& e = entries[static_cast<size_t>(kf)];
+      for (size_t k = 0; k < e.landmark_id.size(); ++k) {
+        if (!seen.emplace(e.landmark_id[k], true).second) continue;
+        points.push_back(e.landmark_point[k]);
+        rows.push_back(e.landmark_descriptors.row(static_cast<int>(k)));
+      }
+    }
+    // Query features -> best landmark by Hamming distance with the ratio
+    // test (OpenCV's brute-force matcher: each query row independently, so
+    // the result does not depend on its threads); a landmark keeps its best
+    // query feature.
+    std::map<size_t, std::pair<int, int>> best_for_landmark;  // landmark -> (distance, query feature)
+    if (rows.size() >= 2 && query.descriptors.rows > 0) {
+      cv::Mat train;
+      cv::vconcat(rows, train);
+      cv::BFMatcher matcher(cv::NORM_HAMMING);
+      std::vector<std::vector<cv::DMatch>> knn;
+      matcher.knnMatch(query.descriptors, train, knn, 2);
+      for (const std::vector<cv::DMatch>& m : knn) {
+        if (m.size() < 2) continue;
+        const int q = m[0].queryIdx;
+        if (query.bearing[static_cast<size_t>(q)].squaredNorm() == 0.0) continue;
+        const int best = static_cast<int>(m[0].distance), second = static_cast<int>(m[1].distance);
+        if (best > options.max_match_distance || best >= options.match_ratio * second) continue;
+        const size_t landmark = static_cast<size_t>(m[0].trainIdx);
+        auto it = best_for_landmark.find(landmark);
+        if (it == best_for_landmark.end() || best < it->second.first) best_for_landmark[landmark] = {best, q};
+      }
+    }
+    std::vector<RigPnpCorrespondence> correspondences;
+    for (const auto& [landmark, match] : best_for_landmark) {
+      correspondences.push_back({query.camera[static_cast<size_t>(match.second)],
+                                 query.bearing[static_cast<size_t>(match.second)], points[landmark]});
+    }
+    attempt.matches = static_cast<int>(correspondences.size());
+    if (attempt.matches < options.min_inliers) {
+      attempt.reason = StrCat(attempt.matches, " matches < ", options.min_inliers);
+      return attempt;
+    }
+    RigPnpOptions pnp_options;
+    pnp_options.threshold_px = options.pnp_threshold_px;
+    pnp_options.focal_px = kFocalPx;
+    pnp_options.max_iterations = options.pnp_max_iterations;
+    pnp_options.min_inliers = options.min_inliers;
+    const RigPnpResult pnp = SolveRigPnp(cam_from_rig, correspondences, pnp_options);
+    attempt.inliers = pnp.num_inliers;
+    int cameras_with_features = 0;
+    for (size_t c = 0; c < query.camera_has_features.size(); ++c) {
+      cameras_with_features += query.camera_has_features[c] ? 1 : 0;
+      if (c < pnp.inliers_per_camera.size() && pnp.inliers_per_camera[c] >= options.min_camera_inliers) {
+        ++attempt.cameras_with_inliers;
+      }
+    }
+    if (!pnp.ok) {
+      attempt.reason = StrCat("rig pose: ", pnp.reason);
+      return attempt;
+    }
+    const int needed =
+        std::max(1, static_cast<int>(std::ceil(options.min_camera_fraction * cameras_with_features - 1e-9)));
+    if (attempt.cameras_with_inliers < needed) {
+      attempt.reason = StrCat(attempt.cameras_with_inliers, " camera(s) with >= ", options.min_camera_inliers,
+                              " inliers < ", needed);
+      return attempt;
+    }
+    const Rigid3d& world_from_candidate = entries[static_cast<size_t>(candidate)].world_from_rig;
+    attempt.candidate_from_query = world_from_candidate.Inverse() * pnp.world_from_rig;
+    const Rigid3d odometry = world_from_candidate.Inverse() * keyframe.world_from_rig;
+    const Rigid3d delta = odometry.Inverse() * attempt.candidate_from_query;
+    attempt.correction_m = delta.translation.norm();
+    attempt.correction_deg = delta.rotation.angularDistance(Eigen::Quaterniond::Identity()) * kRadToDeg;
+    attempt.verified = true;
+    return attempt;
+  }
+
+  bool Consistent(int query, int candidate) const {
+    for (auto it = verified.rbegin(); it != verified.rend(); ++it) {
+      const int dq = query - it->first;
+      if (dq <= 0) continue;
+      if (dq > options.consistency_window) break;
+      if (std::abs((candidate - it->second) - dq) <= options.consistency_window) return true;
+    }
+    return false;
+  }
+
+  std::vector<LoopAttempt> AddKeyframe(const LoopKeyframe& keyframe) {
+    MCVO_CHECK_MSG(static_cast<int>(keyframe.images.size()) == rig.NumCameras(), "keyframe ",
+                   keyframe.frame_index, " has ", keyframe.images.size(), " images, the rig ",
+                   rig.NumCameras());
+    const int index = static_cast<int>(entries.size());
+    auto start = std::chrono::steady_clock::now();
+    const Features features = Extract(keyframe);
+    const BowVector bow = vocabulary.Transform(features.descriptors.rowRange(0, features.num_detections));
+    timing.features_s += Seconds(start);
+
+    start = std::chrono::steady_clock::now();
+    std::vector<std::pair<int, double>> candidates = Query(bow, index);
+    // DBoW2's normalisation: the score over the query's score with the
+    // previous keyframe (a place seen again should look about as similar as
+    // the view a moment ago); places that merely share generic words do not.
+    const double previous_score = previous_bow.empty() ? 0.0 : BowScore(bow, previous_bow);
+    std::vector<double> normalized;
+    for (auto it = candidates.begin(); it != candidates.end();) {
+      const double n = previous_score > 0.0 ? it->second / previous_score : 0.0;
+      if (n < options.min_normalized_score) {
+        it = candidates.erase(it);
+      } else {
+        normalized.push_back(n);
+        ++it;
+      }
+    }
+    previous_bow = bow;
+    timing.query_s += Seconds(start);
+
+    start = std::chrono::steady_clock::now();
+    std::vector<LoopAttempt> attempts;
+    bool accepted = false;
+    for (size_t k = 0; k < candidates.size() && static_cast<int>(k) < options.max_candidates; ++k) {
+      LoopAttempt attempt = Verify(features, index, keyframe, candidates[k].first, candidates[k].second);
+      attempt.normalized_score = normalized[k];
+      if (attempt.verified) {
+        if (accepted) {
+          attempt.reason = "another candidate of this keyframe was accepted";
+        } else if (Consistent(index, attempt.candidate)) {
+          attempt.accepted = true;
+          accepted = true;
+        } else {
+          attempt.reason = StrCat("not yet consistent: no verified loop to nearby keyframes in the last ",
+                                  options.consistency_window, " keyframes");
+        }
+      }
+      attempts.push_back(std::move(attempt));
+    }
+    for (const LoopAttempt& a : attempts) {
+      if (a.verified) verified.emplace_back(a.query, a.candidate);
+    }
+    timing.verification_s += Seconds(start);
+
+    Entry entry;
+    entry.frame_index = keyframe.frame_index;
+    entry.world_from_rig = keyframe.world_from_rig;
+    entry.landmark_id = features.landmark_id;
+    entry.landmark_point = features.landmark_point;
+    entry.landmark_descriptors = features.landmark_descriptors;
+    entries.push_back(std::move(entry));
+    for (const auto& [word, weight] : bow) inverted[word].emplace_back(index, weight);
+    return attempts;
+  }
+};
+
+LoopCloser::LoopCloser(const Rig& rig, std::vector<cv::Mat> masks, Vocabulary vocabulary,
+                       const LoopClosureOptions& options, int threads)
+    : impl_(std::make_unique<Impl>(rig, std::move(masks), std::move(vocabulary), options, threads)) {}
+LoopCloser::~LoopCloser() = default;
+
+std::vector<LoopAttempt> LoopCloser::AddKeyframe(const LoopKeyframe& keyframe) {
+  return impl_->AddKeyframe(keyframe);
+}
+
+int LoopCloser::num_keyframes() const { return static_cast<int>(impl_->entries.size()); }
+
+const LoopTiming& LoopCloser::timing() const { return impl_->timing; }
+
+}  // namespace mcvo
