@@ -11,7 +11,7 @@
 #   urban        the 1.18 km closed route of tools/bench_run.sh (half
 #                resolution; its 4cam run is reused from BENCH_RUN_SCRATCH
 #                when there, else run here): one revisit, at the end;
-#   urban_block  a short closed route around a block, driven 1.5 laps
+#   urban_block  a short closed route around a block, driven BLOCK_LAPS laps
 #                (0.35 image scale): the second lap revisits the first;
 #   urban_repeated  every facade alike, a route that never returns (0.35
 #                image scale): any accepted loop is false.
@@ -27,13 +27,13 @@ MCVO=${1:-build/mcvo}
 SCRATCH=${2:-${TMPDIR:-/tmp}/mcvo_bench_loop}
 BENCH_RUN_SCRATCH=${BENCH_RUN_SCRATCH:-${TMPDIR:-/tmp}/mcvo_bench_run}
 REVISIT_M=${REVISIT_M:-10}
-BLOCK_FRAMES=${BLOCK_FRAMES:-0}
-REPEATED_FRAMES=${REPEATED_FRAMES:-0}
+BLOCK_LAPS=${BLOCK_LAPS:-1.5}
 mkdir -p "$SCRATCH" results
 
-render() {  # name, scene, frames, scale
+render() {  # name, scene, length ("--laps X" or "--frames N"; --frames 0: the whole route), scale
   if [[ ! -f "$SCRATCH/$1/frames.csv" ]]; then
-    "$MCVO" synth --preset kitti360 --scene "$2" --frames "$3" --image-scale "$4" --samples 1 --noise 1 \
+    # shellcheck disable=SC2086
+    "$MCVO" synth --preset kitti360 --scene "$2" $3 --image-scale "$4" --samples 1 --noise 1 \
       --seed 3 --out "$SCRATCH/$1" --force >&2
   fi
 }
@@ -55,8 +55,8 @@ else
   fi
   run urban "$URBAN_SEQ"
 fi
-render block urban_block "$BLOCK_FRAMES" 0.35
-render repeated urban_repeated "$REPEATED_FRAMES" 0.35
+render block urban_block "--laps $BLOCK_LAPS" 0.35
+render repeated urban_repeated "--frames 0" 0.35
 run block "$SCRATCH/block"
 run repeated "$SCRATCH/repeated"
 

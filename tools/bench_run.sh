@@ -103,7 +103,11 @@ for name in ["4cam", "3cam", "2cam", "4cam_shi_short", "4cam_orb_short", "4cam_x
                      local_scale_max=local_scale_range(os.path.join(scratch, name))[1],
                      colmap_points=run.get("colmap", {}).get("points", 0),
                      colmap_error_px=run.get("colmap", {}).get("mean_reprojection_error_px", float("nan")),
-                     colmap_export_s=t.get("colmap_export_s_total", 0.0)))
+                     colmap_export_s=t.get("colmap_export_s_total", 0.0),
+                     loops=r.get("loops_accepted", 0),
+                     ate_vo_m=r.get("ate_rmse_m_before_loop_closure", r.get("ate_rmse_m", float("nan"))),
+                     scale_vo_pct=r.get("scale_error_percent_before_loop_closure",
+                                        r.get("scale_error_percent", float("nan")))))
 with open("results/run_benchmark.csv", "w") as f:
     keys = list(rows[0].keys())
     f.write(",".join(keys) + "\n")
@@ -118,14 +122,18 @@ lines = ["# `mcvo run` on the synthetic urban route (tools/bench_run.sh)", "",
          "fps: wall clock of the whole run on 2 cores (decoding + frontend + back end), not deterministic; "
          "writing the outputs afterwards is not in it (the COLMAP export's seconds are listed, with its points "
          "and mean reprojection error as `colmap model_analyzer` prints it).", "",
-         "| run | cameras | detector | frames (posed) | segments | path m | ATE m | ATE % | scale error % | local scale | fps | frontend ms/frame | back end ms/frame | COLMAP points (error px, export s) |",
-         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+         "ATE and scale error after loop closure; before it (the odometry alone) in the last columns; "
+         "loops: accepted loops (tools/bench_loop.sh has precision and recall). fps includes loop closure.", "",
+         "| run | cameras | detector | frames (posed) | segments | path m | ATE m | ATE % | scale error % | local scale | fps | frontend ms/frame | back end ms/frame | COLMAP points (error px, export s) | loops | odometry ATE m (%) | odometry scale error % |",
+         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 for r in rows:
     lines.append(f"| {r['name']} | {r['cameras']} | {r['detector']} | {r['frames']} ({r['posed']}) | {r['segments']} | "
                  f"{r['path_m']:.1f} | {r['ate_m']:.3f} | {r['ate_pct']:.3f} | {r['scale_pct']:.3f} | "
                  f"{r['local_scale_min']:.3f}-{r['local_scale_max']:.3f} | {r['fps']:.2f} | "
                  f"{r['frontend_ms']:.1f} | {r['backend_ms']:.1f} | "
-                 f"{r['colmap_points']} ({r['colmap_error_px']:.2f}, {r['colmap_export_s']:.1f}) |")
+                 f"{r['colmap_points']} ({r['colmap_error_px']:.2f}, {r['colmap_export_s']:.1f}) | {r['loops']} | "
+                 f"{r['ate_vo_m']:.3f} ({100 * r['ate_vo_m'] / r['path_m'] if r['path_m'] else float('nan'):.3f}) | "
+                 f"{r['scale_vo_pct']:.3f} |")
 open("results/run_benchmark.md", "w").write("\n".join(lines) + "\n")
 print("\n".join(lines))
 PY

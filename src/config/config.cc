@@ -167,6 +167,8 @@ void Visit(V& v, LoopOptions* o) {
   v.Field("min_camera_fraction", &c.min_camera_fraction);
   v.Field("consistency_window", &c.consistency_window);
   v.Field("candidate_neighbours", &c.candidate_neighbours);
+  v.Field("max_correction_fraction", &c.max_correction_fraction);
+  v.Field("max_correction_floor_m", &c.max_correction_floor_m);
   v.Section("pose_graph", &o->pose_graph);
 }
 

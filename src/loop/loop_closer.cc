@@ -42,6 +42,8 @@ void LoopClosureOptions::Check() const {
   CheckInRange("/loop/min_camera_fraction", min_camera_fraction, 0.0, 1.0);
   CheckAtLeast("/loop/consistency_window", consistency_window, 0);
   CheckAtLeast("/loop/candidate_neighbours", candidate_neighbours, 0);
+  CheckAtLeast("/loop/max_correction_fraction", max_correction_fraction, 0.0);
+  CheckAtLeast("/loop/max_correction_floor_m", max_correction_floor_m, 0.0);
 }
 
 struct LoopCloser::Impl {
@@ -62,6 +64,7 @@ struct LoopCloser::Impl {
   struct Entry {
     int frame_index = 0;
     Rigid3d world_from_rig;
+    double path_m = 0.0;  // odometry path length from the first keyframe
     std::vector<int64_t> landmark_id;
     std::vector<Eigen::Vector3d> landmark_point;
     cv::Mat landmark_descriptors;
@@ -302,6 +305,19 @@ struct LoopCloser::Impl {
     const Rigid3d delta = odometry.Inverse() * attempt.candidate_from_query;
     attempt.correction_m = delta.translation.norm();
     attempt.correction_deg = delta.rotation.angularDistance(Eigen::Quaterniond::Identity()) * kRadToDeg;
+    const double path_m =
+        (entries.empty() ? 0.0 : entries.back().path_m) +
+        (entries.empty()
+             ? 0.0
+             : (keyframe.world_from_rig.translation - entries.back().world_from_rig.translation).norm()) -
+        entries[static_cast<size_t>(candidate)].path_m;
+    const double max_correction = options.max_correction_fraction * path_m + options.max_correction_floor_m;
+    if (!(attempt.correction_m <= max_correction)) {
+      attempt.reason = StrCat("implausible: the loop implies a correction of ",
+                              FormatFixed(attempt.correction_m, 2), " m after ", FormatFixed(path_m, 1),
+                              " m of odometry (at most ", FormatFixed(max_correction, 2), " m)");
+      return attempt;
+    }
     attempt.verified = true;
     return attempt;
   }
@@ -372,6 +388,10 @@ struct LoopCloser::Impl {
     Entry entry;
     entry.frame_index = keyframe.frame_index;
     entry.world_from_rig = keyframe.world_from_rig;
+    if (!entries.empty()) {
+      entry.path_m = entries.back().path_m +
+                     (keyframe.world_from_rig.translation - entries.back().world_from_rig.translation).norm();
+    }
     entry.landmark_id = features.landmark_id;
     entry.landmark_point = features.landmark_point;
     entry.landmark_descriptors = features.landmark_descriptors;

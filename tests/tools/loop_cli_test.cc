@@ -4,8 +4,11 @@
 //    first, a loop is found and accepted, the trajectory after the pose
 //    graph is more accurate than before, the run is identical at 1 and 2
 //    threads;
-//  - urban_repeated (every facade alike, a route that never returns): no
-//    loop is accepted.
+//  - urban_repeated (every facade alike, a route that never returns),
+//    driven to its end: no loop is accepted. (The end's view matches a
+//    look-alike block 220 m back geometrically, with 40-50 inliers in 2-4
+//    cameras over consecutive keyframes; the drift that loop would imply
+//    is what rejects it.)
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -94,7 +97,7 @@ TEST_F(LoopCli, RevisitIsClosedAndImprovesTheTrajectory) {
 }
 
 TEST_F(LoopCli, RepeatedFacadesWithoutRevisitGiveNoLoop) {
-  const fs::path seq = Render("repeated", "urban_repeated", "--frames 450");
+  const fs::path seq = Render("repeated", "urban_repeated", "--frames 0");
   const fs::path out = Root() / "run";
   const auto r = RunMcvo("run --dataset " + Quote(seq.string()) + " --config " + Config() + " --out " +
                          Quote(out.string()));

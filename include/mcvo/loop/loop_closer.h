@@ -21,7 +21,11 @@
 //     all cameras at once (backend/rig_pnp.h: OpenGV GP3P in RANSAC + Ceres).
 //     Verified when there are at least `min_inliers` inliers and at least
 //     `min_camera_fraction` of the cameras that had features have
-//     `min_camera_inliers` inliers of their own.
+//     `min_camera_inliers` inliers of their own, and when the correction it
+//     implies is plausible for the odometry's drift: at most
+//     `max_correction_fraction` of the path between the two keyframes plus
+//     `max_correction_floor_m` (repeated facades along a street match
+//     geometrically too, at an implied drift of tens of percent).
 //  5. Consistency against repeated facades: a verified candidate becomes a
 //     loop only when the previous keyframe (or one of the last
 //     `consistency_window` keyframes) verified a candidate within
@@ -66,7 +70,13 @@ struct LoopClosureOptions {
   int min_camera_inliers = 8;        // a camera "has inliers" with at least this many
   double min_camera_fraction = 0.5;  // of the cameras that had features
   int consistency_window = 3;        // keyframes (see 5.)
-  int candidate_neighbours = 2;      // landmarks of this many keyframes on each side of the candidate
+  // Plausibility (see 4.): the correction a loop implies (the difference
+  // between the odometry's and the loop's relative pose) must not exceed
+  // this fraction of the odometry's path between the two keyframes plus the
+  // floor; a look-alike place far away implies an impossible drift.
+  double max_correction_fraction = 0.1;
+  double max_correction_floor_m = 2.0;
+  int candidate_neighbours = 2;  // landmarks of this many keyframes on each side of the candidate
   // Throws InputError naming the field ("/loop/...").
   void Check() const;
 };
