@@ -16,28 +16,11 @@
 
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/synth/synthesize.h"
+#include "test_temp_dir.h"
 
 namespace mcvo::testing {
 
 namespace fs = std::filesystem;
-
-// One folder per process (ctest runs the tests of a binary as parallel
-// processes), removed when the process ends.
-inline fs::path TestTempDir(const std::string& suite) {
-  struct Folder {
-    fs::path path;
-    ~Folder() {
-      std::error_code ec;
-      if (!path.empty()) fs::remove_all(path, ec);
-    }
-  };
-  static Folder folder;
-  if (folder.path.empty()) {
-    folder.path = fs::path(::testing::TempDir()) / ("mcvo_" + suite + "_" + std::to_string(::getpid()));
-  }
-  fs::create_directories(folder.path);
-  return folder.path;
-}
 
 // A rendered sequence of `preset` with `frames` frames, made once per test
 // binary and cached; tests copy it before changing anything.

@@ -22,30 +22,14 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/strings.h"
+#include "test_temp_dir.h"
 
 namespace mcvo {
 namespace {
 
 namespace fs = std::filesystem;
 
-// One folder per process (ctest runs every TEST as its own process),
-// removed when the process ends.
-fs::path Root() {
-  struct Folder {
-    fs::path path;
-    ~Folder() {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  };
-  static const Folder root{[] {
-    const fs::path dir = fs::path(::testing::TempDir()) / ("mcvo_batch_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-  }()};
-  return root.path;
-}
+fs::path Root() { return mcvo::testing::TestTempDir("batch_test"); }
 
 // 20 frames of the stereo preset at 0.35 scale: every frame gets a pose.
 const fs::path& Dataset() {

@@ -11,6 +11,7 @@
 #include <system_error>
 
 #include "mcvo/util/file.h"
+#include "test_temp_dir.h"
 #include "tools/run_mcvo.h"
 
 namespace {
@@ -19,25 +20,7 @@ namespace fs = std::filesystem;
 using mcvo::test::Quote;
 using mcvo::test::RunMcvo;
 
-// One folder per process (ctest runs every TEST as its own process),
-// removed when the process ends.
-fs::path Root() {
-  struct Folder {
-    fs::path path;
-    ~Folder() {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  };
-  static const Folder root{[] {
-    const fs::path dir =
-        fs::path(::testing::TempDir()) / ("mcvo_batch_cli_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-  }()};
-  return root.path;
-}
+fs::path Root() { return mcvo::testing::TestTempDir("batch_cli_test"); }
 
 // Rendered once per process: 16 frames of the stereo preset, small.
 void RenderDataset() {

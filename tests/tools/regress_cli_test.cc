@@ -15,6 +15,7 @@
 #include <system_error>
 
 #include "mcvo/util/file.h"
+#include "test_temp_dir.h"
 #include "tools/run_mcvo.h"
 
 namespace {
@@ -25,25 +26,7 @@ using mcvo::test::RunMcvo;
 
 const fs::path kBaseline = fs::path(MCVO_SOURCE_DIR) / "tests" / "data" / "regress_baseline";
 
-// One folder per process (ctest runs every TEST as its own process),
-// removed when the process ends.
-fs::path Root() {
-  struct Folder {
-    fs::path path;
-    ~Folder() {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  };
-  static const Folder root{[] {
-    const fs::path dir =
-        fs::path(::testing::TempDir()) / ("mcvo_regress_cli_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-  }()};
-  return root.path;
-}
+fs::path Root() { return mcvo::testing::TestTempDir("regress_cli_test"); }
 
 std::string Tolerances() { return Quote((kBaseline / "tolerances.json").string()); }
 
