@@ -258,7 +258,7 @@ int RunInfo(int argc, const char* const* argv) {
   ArgParser args("mcvo vocab info FILE", "Describes a vocabulary file.");
   std::vector<const char*> rest;
   for (int i = 0; i < argc; ++i) {
-    if (file.empty() && std::string(argv[i]).rfind("-", 0) != 0) {
+    if (file.empty() && std::string(argv[i]).rfind('-', 0) != 0) {
       file = argv[i];
     } else {
       rest.push_back(argv[i]);
@@ -269,6 +269,7 @@ int RunInfo(int argc, const char* const* argv) {
   const Vocabulary vocabulary = Vocabulary::Load(file);
   const bool binary = vocabulary.kind() == DescriptorKind::kBinary;
   std::vector<double> idf;
+  idf.reserve(static_cast<size_t>(vocabulary.num_words()));
   for (int w = 0; w < vocabulary.num_words(); ++w) idf.push_back(vocabulary.Idf(static_cast<uint32_t>(w)));
   std::sort(idf.begin(), idf.end());
   const size_t zero = static_cast<size_t>(std::count(idf.begin(), idf.end(), 0.0));

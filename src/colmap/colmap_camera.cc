@@ -347,7 +347,7 @@ std::optional<Eigen::Vector2d> UndistortPixel(const Camera& camera, const Colmap
                                               const Eigen::Vector2d& pixel) {
   const std::optional<Eigen::Vector3d> bearing = camera.Unproject(pixel);
   if (!bearing) return std::nullopt;
-  const std::optional<Eigen::Vector2d> out = ColmapProject(pinhole, *bearing);
+  std::optional<Eigen::Vector2d> out = ColmapProject(pinhole, *bearing);
   if (!out) return std::nullopt;
   // Inside the pinhole image [0, w) x [0, h) in COLMAP's convention.
   if (!(out->x() >= 0.0 && out->y() >= 0.0 && out->x() < static_cast<double>(pinhole.width) &&

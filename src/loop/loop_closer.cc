@@ -140,6 +140,7 @@ struct LoopCloser::Impl {
     if (threads > 1 && n > 1) {
       std::vector<std::thread> workers;
       const int count = std::min(threads, n);
+      workers.reserve(static_cast<size_t>(count));
       for (int w = 0; w < count; ++w) {
         workers.emplace_back([&, w] {
           for (int c = w; c < n; c += count) per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe);
@@ -265,6 +266,7 @@ struct LoopCloser::Impl {
       }
     }
     std::vector<RigPnpCorrespondence> correspondences;
+    correspondences.reserve(best_for_landmark.size());
     for (const auto& [landmark, match] : best_for_landmark) {
       correspondences.push_back({query.camera[static_cast<size_t>(match.second)],
                                  query.bearing[static_cast<size_t>(match.second)], points[landmark]});

@@ -101,7 +101,7 @@ void Vocabulary::Save(const std::filesystem::path& path) const {
     } else {
       for (int d = 0; d < impl.descriptor_size; ++d) {
         uint32_t bits = 0;
-        std::memcpy(&bits, row + 4 * d, 4);
+        std::memcpy(&bits, row + 4 * static_cast<ptrdiff_t>(d), 4);
         PutU32(&out, bits);
       }
     }

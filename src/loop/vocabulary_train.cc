@@ -157,7 +157,7 @@ void NodeSplitter<BinaryMetric>::UpdateCentres(const std::vector<uint32_t>& memb
     const int c = assignment[i];
     ++sizes[static_cast<size_t>(c)];
     const uint8_t* row = Row(members[i]);
-    int* counts = &ones[static_cast<size_t>(c * bits)];
+    int* counts = &ones[static_cast<size_t>(c) * static_cast<size_t>(bits)];
     for (int byte = 0; byte < row_bytes_; ++byte) {
       const unsigned value = row[byte];
       if (value == 0) continue;
@@ -168,7 +168,7 @@ void NodeSplitter<BinaryMetric>::UpdateCentres(const std::vector<uint32_t>& memb
     const int size = sizes[static_cast<size_t>(c)];
     if (size == 0) continue;
     uint8_t* centre = centres->ptr<uint8_t>(c);
-    const int* counts = &ones[static_cast<size_t>(c * bits)];
+    const int* counts = &ones[static_cast<size_t>(c) * static_cast<size_t>(bits)];
     for (int byte = 0; byte < row_bytes_; ++byte) {
       unsigned value = 0;
       for (int bit = 0; bit < 8; ++bit) {
@@ -191,14 +191,14 @@ void NodeSplitter<FloatMetric>::UpdateCentres(const std::vector<uint32_t>& membe
     const int c = assignment[i];
     ++sizes[static_cast<size_t>(c)];
     const float* row = reinterpret_cast<const float*>(Row(members[i]));
-    double* sum = &sums[static_cast<size_t>(c * dims)];
+    double* sum = &sums[static_cast<size_t>(c) * static_cast<size_t>(dims)];
     for (int d = 0; d < dims; ++d) sum[d] += row[d];
   }
   for (int c = 0; c < k; ++c) {
     const int size = sizes[static_cast<size_t>(c)];
     if (size == 0) continue;
     float* centre = reinterpret_cast<float*>(centres->ptr<uint8_t>(c));
-    const double* sum = &sums[static_cast<size_t>(c * dims)];
+    const double* sum = &sums[static_cast<size_t>(c) * static_cast<size_t>(dims)];
     for (int d = 0; d < dims; ++d) centre[d] = static_cast<float>(sum[d] / size);
   }
 }

@@ -560,7 +560,7 @@ Json ReadRunFolderJson(const fs::path& dir, const std::string& role) {
   if (!fs::is_regular_file(path, ec)) {
     MCVO_THROW_INPUT(dir.string(), ": ", role, " is not a run folder (no run.json)");
   }
-  const Json run = io_internal::ReadJsonFile(path);
+  Json run = io_internal::ReadJsonFile(path);
   if (!run.is_object() || !run.contains("outputs_sha256") || !run["outputs_sha256"].is_object()) {
     MCVO_THROW_INPUT(path.string(), ": /outputs_sha256: missing (not a run.json of mcvo run)");
   }

@@ -218,6 +218,7 @@ SparseMap BuildSparseMap(const DatasetIndex& index, const std::vector<KeyframeEs
 // consecutive keyframes form the pose graph.
 struct LoopOutcome {
   std::vector<LoopAttempt> attempts;
+  int verified = 0;
   int accepted = 0;
   bool applied = false;                 // the pose graph ran and its result is used
   std::vector<Rigid3d> keyframe_after;  // per keyframe (== before when not applied)
@@ -246,6 +247,7 @@ LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEsti
       const int n = static_cast<int>(std::min(paths.size(), lk.images.size()));
       const int workers = std::max(1, std::min(threads, n));
       std::vector<std::thread> readers;
+      readers.reserve(static_cast<size_t>(workers));
       for (int w = 0; w < workers; ++w) {
         readers.emplace_back([&, w] {
           for (int c = w; c < n; c += workers) {
@@ -266,6 +268,7 @@ LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEsti
       lk.points.push_back({ob.camera, ob.landmark_id, ob.pixel, kf.observation_points[k]});
     }
     for (LoopAttempt& attempt : closer.AddKeyframe(lk)) {
+      out.verified += attempt.verified ? 1 : 0;
       out.accepted += attempt.accepted ? 1 : 0;
       out.attempts.push_back(std::move(attempt));
     }
@@ -522,9 +525,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   LoopOutcome loops;
   if (vocabulary) loops = CloseLoops(index, keyframes, *vocabulary, options.loop, threads);
   if (vocabulary) {
-    int verified = 0;
-    for (const LoopAttempt& a : loops.attempts) verified += a.verified ? 1 : 0;
-    MCVO_LOG(kInfo, "run: loop closure: ", keyframes.size(), " keyframes, ", verified,
+    MCVO_LOG(kInfo, "run: loop closure: ", keyframes.size(), " keyframes, ", loops.verified,
              " candidates verified, ", loops.accepted, " loop(s) accepted",
              loops.applied ? ", pose graph applied" : "");
   }
@@ -793,9 +794,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   result["sparse_map_landmarks"] = map.landmarks.size();
   result["sparse_map_observations_dropped"] = map_observations_dropped;
   if (vocabulary) {
-    int verified = 0;
-    for (const LoopAttempt& a : loops.attempts) verified += a.verified ? 1 : 0;
-    result["loop_candidates_verified"] = verified;
+    result["loop_candidates_verified"] = loops.verified;
     result["loops_accepted"] = loops.accepted;
     result["loop_closure_applied"] = loops.applied;
     if (loops.applied && eval_vo) {
