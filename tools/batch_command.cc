@@ -68,6 +68,8 @@ int RunBatchCommand(int argc, const char* const* argv) {
   MCVO_LOG(kInfo, "batch: wrote ", summary.string(), " and ", summary.parent_path().string(), "/",
            summary.stem().string(), ".md");
   int bad = report.Count(BatchRunStatus::kFailed);
+  // A run that posed no frame counts as bad too (mcvo run exits with 5 for it).
+  for (const BatchRunResult& r : report.runs) bad += r.has_result && r.posed_frames == 0 ? 1 : 0;
   if (summary_only) bad += report.Count(BatchRunStatus::kNotRun) + report.Count(BatchRunStatus::kStale);
   return bad > 0 ? kExitRunsFailed : kExitOk;
 }

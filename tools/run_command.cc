@@ -67,8 +67,8 @@ int RunRun(int argc, const char* const* argv) {
   request.max_frames = max_frames;
   request.version = MCVO_VERSION;
   for (int i = 0; i < argc; ++i) request.command_line += (i > 0 ? " " : "") + std::string(argv[i]);
-  RunPipeline(request);
-  return kExitOk;
+  const RunSummary summary = RunPipeline(request);
+  return summary.posed_frames > 0 ? kExitOk : kExitNothingPosed;
 }
 
 const CommandRegistrar kRegistrar("run", {"run the pipeline on a dataset: trajectory, scale log, evaluation",

@@ -123,6 +123,8 @@ void Visit(V& v, BackendOptions* o) {
   v.Field("scale_correction_sigma_factor", &o->scale_correction_sigma_factor);
   v.Field("scale_correction_min_rotation_deg", &o->scale_correction_min_rotation_deg);
   v.Field("refine_extrinsics", &o->refine_extrinsics);
+  v.Field("reverse_pass", &o->reverse_pass);
+  v.Field("reverse_pass_overlap_frames", &o->reverse_pass_overlap_frames);
 }
 
 template <typename V>

@@ -145,6 +145,8 @@ void ReadRunNumbers(const fs::path& run_dir, BatchRunResult* result) {
   result->has_result = true;
   if (number(r, "frames", &value)) result->frames = static_cast<int>(value);
   if (number(r, "posed_frames", &value)) result->posed_frames = static_cast<int>(value);
+  if (number(r, "segments", &value)) result->segments = static_cast<int>(value);
+  if (r.contains("warning") && r["warning"].is_string()) result->warning = r["warning"].get<std::string>();
   result->evaluated = number(r, "ate_rmse_m", &result->ate_rmse_m);
   number(r, "ate_percent_of_path", &result->ate_percent_of_path);
   number(r, "scale_error_percent", &result->scale_error_percent);
@@ -543,14 +545,14 @@ BatchReport RunBatch(const BatchManifest& manifest, const BatchOptions& options)
 
 std::string BatchSummaryCsv(const BatchReport& report) {
   std::string csv =
-      "name,status,note,frames,posed_frames,ate_rmse_m,ate_percent_of_path,rpe_translation_percent,"
+      "name,status,note,frames,posed_frames,segments,warning,ate_rmse_m,ate_percent_of_path,rpe_translation_percent,"
       "rpe_rotation_deg_per_100m,scale_error_percent,frames_per_second\n";
   for (const BatchRunResult& r : report.runs) {
     csv += StrCat(r.name, ",", BatchRunStatusName(r.status), ",", CsvQuote(r.note));
     if (r.has_result) {
-      csv += StrCat(",", r.frames, ",", r.posed_frames);
+      csv += StrCat(",", r.frames, ",", r.posed_frames, ",", r.segments, ",", CsvQuote(r.warning));
     } else {
-      csv += ",,";
+      csv += ",,,,";
     }
     for (double value : {r.ate_rmse_m, r.ate_percent_of_path})
       csv += "," + (r.evaluated ? FormatDouble(value) : "");
@@ -570,18 +572,19 @@ std::string BatchSummaryMarkdown(const BatchReport& report) {
     md += StrCat(" (shard ", report.shard.index, "/", report.shard.count, ")");
   }
   md +=
-      "\n\n| run | status | frames | posed | ATE RMSE (m) | ATE (% of path) | RPE (%) | RPE (deg/100 m) | "
-      "scale error (%) | frames/s |\n|---|---|---|---|---|---|---|---|---|---|\n";
+      "\n\n| run | status | frames | posed | segments | ATE RMSE (m) | ATE (% of path) | RPE (%) | RPE (deg/100 m) | "
+      "scale error (%) | frames/s | warning |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const BatchRunResult& r : report.runs) {
     md += StrCat("| ", r.name, " | ", MarkdownCell(StatusText(r)), " | ");
-    md += r.has_result ? StrCat(r.frames, " | ", r.posed_frames, " | ") : std::string(" |  | ");
+    md += r.has_result ? StrCat(r.frames, " | ", r.posed_frames, " | ", r.segments, " | ") : std::string(" |  |  | ");
     md += r.evaluated ? FormatFixed(r.ate_rmse_m, 4) + " | " + FormatFixed(r.ate_percent_of_path, 3) + " | "
                       : std::string(" |  | ");
     md += r.has_rpe ? FormatFixed(r.rpe_translation_percent, 3) + " | " +
                           FormatFixed(r.rpe_rotation_deg_per_100m, 3) + " | "
                     : std::string(" |  | ");
     md += r.evaluated ? FormatFixed(r.scale_error_percent, 3) + " | " : std::string(" | ");
-    md += r.has_result ? FormatFixed(r.frames_per_second, 2) + " |\n" : std::string(" |\n");
+    md += r.has_result ? FormatFixed(r.frames_per_second, 2) + " | " : std::string(" | ");
+    md += MarkdownCell(r.warning) + " |\n";
   }
   md += "\n" + CountsLine(report) +
         ". ATE with the config's eval alignment; RPE: mean over the lengths; "

@@ -18,6 +18,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "mcvo/backend/estimator.h"
+#include "mcvo/backend/reverse_pass.h"
 #include "mcvo/colmap/colmap_model.h"
 #include "mcvo/config/config.h"
 #include "mcvo/eval/report.h"
@@ -139,6 +140,84 @@ std::string CsvQuote(const std::string& text) {
     out += ch;
   }
   return out + "\"";
+}
+
+// What the forward pass made of one frame (its pose updates are in the run's
+// pose map), for frame_stats.csv and timing.csv.
+struct FrameRecord {
+  FrameEstimate estimate;
+  size_t cross_camera = 0;
+  double frontend_seconds = 0.0;
+  double backend_seconds = 0.0;
+};
+
+// Merges the reverse passes' poses, keyframes and landmarks into the run's
+// (a landmark the forward pass has keeps the forward position) and their
+// log lines into the scale log. Returns the frames it posed, with their segment.
+std::map<int, int> ApplyReversePass(ReversePassResult result, std::map<int, StampedPose>* poses,
+                                    std::vector<KeyframeEstimate>* keyframes,
+                                    std::map<int64_t, Eigen::Vector3d>* landmarks,
+                                    std::vector<ScaleLogEntry>* scale_log) {
+  std::map<int, int> posed;
+  for (const BackfilledFrame& frame : result.frames) {
+    StampedPose pose;
+    pose.t_ns = frame.t_ns;
+    pose.frame_index = frame.frame_index;
+    pose.world_from_body = frame.world_from_rig;
+    (*poses)[frame.frame_index] = pose;
+    posed[frame.frame_index] = frame.segment;
+  }
+  for (KeyframeEstimate& kf : result.keyframes) keyframes->push_back(std::move(kf));
+  for (const MapLandmark& lm : result.landmarks) landmarks->emplace(lm.id, lm.position_world);
+  for (const ReversePassReport& report : result.reports) {
+    if (report.applied) {
+      MCVO_LOG(kInfo, "run: reverse pass before segment ", report.segment, ": ", report.note);
+    } else {
+      MCVO_LOG(kWarning, "run: reverse pass before segment ", report.segment, ": ", report.note);
+    }
+  }
+  for (ScaleLogEntry& entry : result.scale_log) scale_log->push_back(std::move(entry));
+  std::stable_sort(scale_log->begin(), scale_log->end(),
+                   [](const ScaleLogEntry& a, const ScaleLogEntry& b) { return a.frame_index < b.frame_index; });
+  return posed;
+}
+
+std::string FrameStatsCsv(const Rig& rig, const std::vector<FrameRecord>& records,
+                          const std::map<int, StampedPose>& poses, const std::map<int, int>& reverse_posed) {
+  std::string csv =
+      "frame,t_ns,state,segment,keyframe,has_pose,pose_source,pnp_inliers,landmarks,ba_iterations,"
+      "ba_initial_cost,ba_final_cost";
+  for (const Camera& camera : rig.cameras) csv += ",features_" + camera.name;
+  for (const Camera& camera : rig.cameras) csv += ",landmarks_" + camera.name;
+  csv += ",cross_camera,note\n";
+  for (const FrameRecord& record : records) {
+    const FrameEstimate& est = record.estimate;
+    auto reverse = reverse_posed.find(est.frame_index);
+    const bool has_pose = poses.count(est.frame_index) != 0;
+    const char* source = reverse != reverse_posed.end() ? "reverse" : has_pose ? "forward" : "none";
+    const int segment = reverse != reverse_posed.end() ? reverse->second : est.segment;
+    csv += StrCat(est.frame_index, ",", est.t_ns, ",", EnumToName(kEstimatorStateNames, est.state), ",", segment,
+                  ",", est.keyframe ? 1 : 0, ",", has_pose ? 1 : 0, ",", source, ",", est.pnp_inliers, ",",
+                  est.num_landmarks, ",", est.ba_iterations, ",", FormatDouble(est.ba_initial_cost), ",",
+                  FormatDouble(est.ba_final_cost));
+    for (int n : est.features_per_camera) csv += StrCat(",", n);
+    for (int n : est.landmarks_per_camera) csv += StrCat(",", n);
+    csv += StrCat(",", record.cross_camera, ",", CsvQuote(est.waiting_reason), "\n");
+  }
+  return csv;
+}
+
+std::string TimingCsv(const std::vector<FrameRecord>& records) {
+  std::string csv =
+      "frame,t_ns,frontend_s,initializer_s,pnp_s,ba_s,marginalization_s,scale_correction_s,backend_s\n";
+  for (const FrameRecord& record : records) {
+    const FrameEstimate& est = record.estimate;
+    csv += StrCat(est.frame_index, ",", est.t_ns, ",", FormatFixed(record.frontend_seconds, 6), ",",
+                  FormatFixed(est.seconds_initializer, 6), ",", FormatFixed(est.seconds_pnp, 6), ",",
+                  FormatFixed(est.seconds_ba, 6), ",", FormatFixed(est.seconds_marginalization, 6), ",",
+                  FormatFixed(est.seconds_scale, 6), ",", FormatFixed(record.backend_seconds, 6), "\n");
+  }
+  return csv;
 }
 
 struct StageSeconds {
@@ -352,6 +431,34 @@ std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetInde
   return inputs;
 }
 
+std::string RunPosingWarning(int frames, int posed, const std::vector<std::string>& unposed_reasons) {
+  if (frames <= 0 || 2 * posed >= frames) return {};
+  // Each waiting reason in a category a user can act on; the most frequent wins.
+  auto category = [](const std::string& reason) -> std::string {
+    auto has = [&](const char* text) { return reason.find(text) != std::string::npos; };
+    if (has("one camera")) return "one camera: the metric scale is not observable";
+    if (has("parallax")) return "the rig never moved enough for the initializer (parallax too small)";
+    if (has("pure translation") || has("not observable") || has("poorly observable"))
+      return "the metric scale was never observable (the rig did not turn and no cameras overlap)";
+    if (has("rig pose failed") || has("tracking lost")) return "tracking lost";
+    if (has("correspondences")) return "too few tracked features";
+    if (reason.empty() || has("window")) return "too few frames to initialise";
+    return reason;
+  };
+  std::map<std::string, int> counts;
+  for (const std::string& reason : unposed_reasons) ++counts[category(reason)];
+  std::string top = "unknown";
+  int best = 0;
+  for (const auto& [text, n] : counts) {
+    if (n > best) {
+      best = n;
+      top = text;
+    }
+  }
+  return StrCat(posed == 0 ? "no frame posed" : StrCat("only ", posed, " of ", frames, " frames posed"), " (",
+                FormatFixed(100.0 * posed / frames, 1), " %): ", top);
+}
+
 RunSummary RunPipeline(const RunRequest& request) {
   const PipelineOptions& options = request.options;
   options.Check();
@@ -460,14 +567,13 @@ RunSummary RunPipeline(const RunRequest& request) {
   std::vector<KeyframeEstimate> keyframes;
   std::map<int64_t, Eigen::Vector3d> landmarks;  // id -> latest final position
   std::vector<ScaleLogEntry> scale_log;
-  std::string stats_csv =
-      "frame,t_ns,state,segment,keyframe,has_pose,pnp_inliers,landmarks,ba_iterations,"
-      "ba_initial_cost,ba_final_cost";
-  std::string timing_csv =
-      "frame,t_ns,frontend_s,initializer_s,pnp_s,ba_s,marginalization_s,scale_correction_s,backend_s\n";
-  for (const Camera& camera : rig.cameras) stats_csv += ",features_" + camera.name;
-  for (const Camera& camera : rig.cameras) stats_csv += ",landmarks_" + camera.name;
-  stats_csv += ",cross_camera,note\n";
+  std::vector<FrameRecord> records;
+  std::optional<ReversePass> reverse_pass;
+  if (options.backend.reverse_pass) {
+    ReversePassOptions reverse_options;
+    reverse_options.overlap_frames = options.backend.reverse_pass_overlap_frames;
+    reverse_pass.emplace(rig, options.initializer, options.backend, reverse_options, threads);
+  }
   StageSeconds totals;
   RunSummary summary;
   ProgressBar progress("run", total_frames, "frames");
@@ -476,7 +582,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   while (std::optional<FrontendItem> item = queue.Pop()) {
     const Clock::time_point start = Clock::now();
     const RigFrameObservations obs = ToObservations(rig, item->frame);
-    const FrameEstimate est = estimator.AddFrame(obs);
+    FrameEstimate est = estimator.AddFrame(obs);
     const double backend_seconds = SecondsSince(start);
     for (const PoseUpdate& update : est.poses) {
       StampedPose pose;
@@ -485,22 +591,11 @@ RunSummary RunPipeline(const RunRequest& request) {
       pose.world_from_body = update.world_from_rig;
       poses[update.frame_index] = pose;
     }
+    if (reverse_pass) reverse_pass->Add(obs, est);
     for (KeyframeEstimate& kf : estimator.TakeFinishedKeyframes()) keyframes.push_back(std::move(kf));
     for (const MapLandmark& lm : estimator.TakeFinishedLandmarks()) landmarks[lm.id] = lm.position_world;
     for (ScaleLogEntry& entry : estimator.TakeScaleLog()) scale_log.push_back(std::move(entry));
     last_segment = std::max(last_segment, est.segment);
-
-    stats_csv += StrCat(est.frame_index, ",", est.t_ns, ",", EnumToName(kEstimatorStateNames, est.state), ",",
-                        est.segment, ",", est.keyframe ? 1 : 0, ",", est.has_pose ? 1 : 0, ",",
-                        est.pnp_inliers, ",", est.num_landmarks, ",", est.ba_iterations, ",",
-                        FormatDouble(est.ba_initial_cost), ",", FormatDouble(est.ba_final_cost));
-    for (int n : est.features_per_camera) stats_csv += StrCat(",", n);
-    for (int n : est.landmarks_per_camera) stats_csv += StrCat(",", n);
-    stats_csv += StrCat(",", obs.cross_camera.size(), ",", CsvQuote(est.waiting_reason), "\n");
-    timing_csv += StrCat(est.frame_index, ",", est.t_ns, ",", FormatFixed(item->seconds, 6), ",",
-                         FormatFixed(est.seconds_initializer, 6), ",", FormatFixed(est.seconds_pnp, 6), ",",
-                         FormatFixed(est.seconds_ba, 6), ",", FormatFixed(est.seconds_marginalization, 6),
-                         ",", FormatFixed(est.seconds_scale, 6), ",", FormatFixed(backend_seconds, 6), "\n");
     totals.frontend += item->seconds;
     totals.initializer += est.seconds_initializer;
     totals.pnp += est.seconds_pnp;
@@ -508,6 +603,8 @@ RunSummary RunPipeline(const RunRequest& request) {
     totals.marginalization += est.seconds_marginalization;
     totals.scale += est.seconds_scale;
     totals.backend += backend_seconds;
+    est.poses.clear();
+    records.push_back({std::move(est), obs.cross_camera.size(), item->seconds, backend_seconds});
     ++summary.frames;
     progress.Update(summary.frames);
   }
@@ -515,9 +612,19 @@ RunSummary RunPipeline(const RunRequest& request) {
   for (KeyframeEstimate& kf : estimator.Finish()) keyframes.push_back(std::move(kf));
   for (const MapLandmark& lm : estimator.TakeFinishedLandmarks()) landmarks[lm.id] = lm.position_world;
   for (ScaleLogEntry& entry : estimator.TakeScaleLog()) scale_log.push_back(std::move(entry));
+  std::map<int, int> reverse_posed;  // frame index -> segment, of the frames the reverse pass posed
+  double reverse_seconds = 0.0;
+  if (reverse_pass) {
+    const Clock::time_point start = Clock::now();
+    reverse_posed = ApplyReversePass(reverse_pass->Run(), &poses, &keyframes, &landmarks, &scale_log);
+    reverse_seconds = SecondsSince(start);
+    reverse_pass.reset();
+  }
   std::stable_sort(
       keyframes.begin(), keyframes.end(),
       [](const KeyframeEstimate& a, const KeyframeEstimate& b) { return a.frame_index < b.frame_index; });
+  const std::string stats_csv = FrameStatsCsv(rig, records, poses, reverse_posed);
+  const std::string timing_csv = TimingCsv(records);
   const double vo_seconds = SecondsSince(run_start);
 
   // Loop closure, then every pose and landmark moved with its keyframe's
@@ -572,6 +679,13 @@ RunSummary RunPipeline(const RunRequest& request) {
   summary.posed_frames = static_cast<int>(poses.size());
   summary.keyframes = static_cast<int>(keyframes.size());
   summary.segments = last_segment + 1;
+  {
+    std::vector<std::string> unposed_reasons;
+    for (const FrameRecord& record : records) {
+      if (poses.count(record.estimate.frame_index) == 0) unposed_reasons.push_back(record.estimate.waiting_reason);
+    }
+    summary.warning = RunPosingWarning(summary.frames, summary.posed_frames, unposed_reasons);
+  }
 
   // Outputs.
   Trajectory trajectory;
@@ -737,7 +851,9 @@ RunSummary RunPipeline(const RunRequest& request) {
                            {"frames", StrCat(summary.frames)},
                            {"posed frames", StrCat(summary.posed_frames)},
                            {"keyframes", StrCat(summary.keyframes)},
-                           {"segments", StrCat(summary.segments)}};
+                           {"segments", StrCat(summary.segments)},
+                           {"posed by the reverse pass (scale applied back)", StrCat(reverse_posed.size())}};
+    if (!summary.warning.empty()) report.summary_rows.push_back({"warning", summary.warning});
     WriteReports(dir, report);
   }
 
@@ -784,6 +900,8 @@ RunSummary RunPipeline(const RunRequest& request) {
   result["posed_frames"] = summary.posed_frames;
   result["keyframes"] = summary.keyframes;
   result["segments"] = summary.segments;
+  result["frames_posed_by_reverse_pass"] = reverse_posed.size();
+  if (!summary.warning.empty()) result["warning"] = summary.warning;
   if (summary.evaluated) {
     result["ate_rmse_m"] = summary.ate_rmse_m;
     result["ate_percent_of_path"] = summary.ate_percent_of_path;
@@ -819,6 +937,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   timing["backend_s"] = totals.backend / n;
   timing["colmap_export_s_total"] = colmap_seconds;
   timing["odometry_s_total"] = vo_seconds;
+  timing["reverse_pass_s_total"] = reverse_seconds;
   if (vocabulary) {
     const double keyframe_count = std::max<size_t>(1, keyframes.size());
     timing["loop_image_read_s_per_keyframe"] = loops.image_seconds / keyframe_count;
@@ -845,6 +964,7 @@ RunSummary RunPipeline(const RunRequest& request) {
              " m), scale error ", FormatFixed(summary.scale_error_percent, 3), " % (",
              EnumToName(kAlignmentModeNames, options.eval.align), " alignment)");
   }
+  if (!summary.warning.empty()) MCVO_LOG(kWarning, "run: ", summary.warning);
   MCVO_LOG(kInfo, "run: wrote ", absolute_out.string());
   return summary;
 }

@@ -47,6 +47,11 @@ struct BackendOptions {
   double scale_correction_min_rotation_deg =
       10.0;                        // windows turning less are not used (no overlap: no scale)
   bool refine_extrinsics = false;  // camera 0's extrinsic stays fixed (gauge)
+  // Offline completion (reverse_pass.h): the frames before each segment's
+  // initialisation are posed by the estimator run backwards from it, at the
+  // scale found later; it runs over this many posed frames too, to align.
+  bool reverse_pass = true;
+  int reverse_pass_overlap_frames = 40;
 
   // Throws InputError naming the field by its config path ("/backend/...").
   void Check() const;

@@ -93,6 +93,8 @@ struct BatchRunResult {
   bool has_result = false;  // the numbers below come from a run.json
   int frames = 0;
   int posed_frames = 0;
+  int segments = 0;
+  std::string warning;  // run.json "result"/"warning": fewer than half of the frames posed
   bool evaluated = false;
   double ate_rmse_m = 0.0;
   double ate_percent_of_path = 0.0;

@@ -56,7 +56,17 @@ struct RunSummary {
   double scale_error_percent = 0.0;
   double gt_path_length_m = 0.0;
   int loops_accepted = 0;
+  // Set when fewer than half of the frames are posed: one line with the
+  // reason (RunPosingWarning). Logged, in run.json ("result"/"warning") and
+  // the report; `mcvo run` exits with kExitNothingPosed when no frame is posed.
+  std::string warning;
 };
+
+// The warning for a run that posed `posed` of `frames` frames (empty when at
+// least half are posed), naming the most frequent reason the unposed frames
+// waited for: one camera (scale not observable), the rig never moved, never
+// turned without overlapping views, tracking lost, too few features.
+std::string RunPosingWarning(int frames, int posed, const std::vector<std::string>& unposed_reasons);
 
 // Runs the pipeline. Bad input throws InputError / UsageError naming the file
 // and field; nothing is left at out_dir then.

@@ -21,6 +21,9 @@ enum ExitCode : int {
   kExitInternal = 1,
   kExitUsage = 2,
   kExitBadInput = 3,
+  // 4: used by batch and regress (some run failed / runs differ).
+  // `mcvo run` wrote its outputs but posed no frame (run.json "warning" says why).
+  kExitNothingPosed = 5,
 };
 
 // A user-supplied file or value is invalid. what() is one line of the form

@@ -1,0 +1,227 @@
+#include "mcvo/backend/reverse_pass.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include <Eigen/SVD>
+
+#include "mcvo/util/error.h"
+#include "mcvo/util/strings.h"
+
+namespace mcvo {
+
+Sim3d AlignPosesSim3(const std::vector<Rigid3d>& from, const std::vector<Rigid3d>& to, double* rms_m) {
+  MCVO_CHECK_MSG(!from.empty() && from.size() == to.size(), "AlignPosesSim3: ", from.size(), " vs ",
+                 to.size(), " poses");
+  const size_t n = from.size();
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d mean_from = Eigen::Vector3d::Zero(), mean_to = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < n; ++i) {
+    sum += to[i].rotation.toRotationMatrix() * from[i].rotation.toRotationMatrix().transpose();
+    mean_from += from[i].translation;
+    mean_to += to[i].translation;
+  }
+  mean_from /= static_cast<double>(n);
+  mean_to /= static_cast<double>(n);
+  // Chordal mean: the rotation nearest to the sum (projection onto SO(3)).
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  const Eigen::Matrix3d rotation = svd.matrixU() * d * svd.matrixV().transpose();
+  double numerator = 0.0, denominator = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d p = rotation * (from[i].translation - mean_from);
+    numerator += (to[i].translation - mean_to).dot(p);
+    denominator += p.squaredNorm();
+  }
+  constexpr double kMinSpreadM = 0.01;
+  const double spread = std::sqrt(denominator / static_cast<double>(n));
+  const double scale = spread >= kMinSpreadM && numerator > 0.0 ? numerator / denominator : 1.0;
+  const Sim3d out(scale, Eigen::Quaterniond(rotation), mean_to - scale * (rotation * mean_from));
+  if (rms_m != nullptr) {
+    double sq = 0.0;
+    for (size_t i = 0; i < n; ++i) sq += (out * from[i].translation - to[i].translation).squaredNorm();
+    *rms_m = std::sqrt(sq / static_cast<double>(n));
+  }
+  return out;
+}
+
+struct ReversePass::Impl {
+  Impl(const Rig& rig_in, const InitializerOptions& init_in, const BackendOptions& options_in,
+       const ReversePassOptions& reverse_in, int threads_in)
+      : rig(rig_in), init_options(init_in), options(options_in), reverse(reverse_in), threads(threads_in) {}
+
+  const Rig rig;
+  const InitializerOptions init_options;
+  const BackendOptions options;
+  const ReversePassOptions reverse;
+  const int threads;
+
+  struct Posed {
+    int segment = 0;
+    Rigid3d world_from_rig;
+  };
+  std::map<int, RigFrameObservations> kept;  // frames a reverse pass may need
+  std::map<int, Posed> forward;              // forward poses (latest update)
+  std::map<int, int> first_posed;            // segment -> first posed frame index
+
+  void Add(const RigFrameObservations& frame, const FrameEstimate& estimate) {
+    for (const PoseUpdate& update : estimate.poses) {
+      forward[update.frame_index] = {estimate.segment, update.world_from_rig};
+      auto [it, inserted] = first_posed.emplace(estimate.segment, update.frame_index);
+      if (!inserted) it->second = std::min(it->second, update.frame_index);
+    }
+    auto first = first_posed.find(estimate.segment);
+    const bool beyond_overlap = estimate.has_pose && first != first_posed.end() &&
+                                frame.frame_index > first->second + reverse.overlap_frames;
+    if (!beyond_overlap) kept[frame.frame_index] = frame;
+  }
+
+  // The reverse estimator over `frames` (descending frame index). Fills the
+  // poses of its first segment, its keyframes and landmarks (reverse world,
+  // original frame indices).
+  struct ReverseRun {
+    std::map<int, Rigid3d> poses;
+    std::vector<KeyframeEstimate> keyframes;
+    std::vector<MapLandmark> landmarks;
+    int init_frame = -1;
+  };
+  ReverseRun RunReverse(const std::vector<const RigFrameObservations*>& frames) const {
+    ReverseRun run;
+    const int top = frames.front()->frame_index;
+    const int64_t top_t = frames.front()->t_ns;
+    Estimator estimator(rig, init_options, options, threads);
+    auto original = [&](int reversed) { return top - reversed; };
+    auto take = [&](std::vector<KeyframeEstimate> keyframes) {
+      for (KeyframeEstimate& kf : keyframes) {
+        if (kf.segment != 0) continue;
+        kf.frame_index = original(kf.frame_index);
+        kf.t_ns = top_t - kf.t_ns;
+        run.keyframes.push_back(std::move(kf));
+      }
+    };
+    for (const RigFrameObservations* frame : frames) {
+      RigFrameObservations reversed = *frame;
+      reversed.frame_index = top - frame->frame_index;
+      reversed.t_ns = top_t - frame->t_ns;
+      const FrameEstimate estimate = estimator.AddFrame(reversed);
+      if (estimate.segment > 0) break;  // lost: what follows is another world
+      for (const PoseUpdate& update : estimate.poses) run.poses[original(update.frame_index)] = update.world_from_rig;
+      if (run.init_frame < 0 && estimate.has_pose) run.init_frame = frame->frame_index;
+      take(estimator.TakeFinishedKeyframes());
+      for (MapLandmark& lm : estimator.TakeFinishedLandmarks()) run.landmarks.push_back(lm);
+    }
+    take(estimator.Finish());
+    for (MapLandmark& lm : estimator.TakeFinishedLandmarks()) run.landmarks.push_back(lm);
+    return run;
+  }
+
+  void Complete(int segment, int first_pose, int previous_posed, ReversePassResult* result) const {
+    ReversePassReport report;
+    report.segment = segment;
+    report.first_posed_frame = first_pose;
+    report.first_unposed_frame = previous_posed + 1;
+    const int top = first_pose + reverse.overlap_frames;
+    std::vector<const RigFrameObservations*> frames;
+    for (auto it = kept.upper_bound(top); it != kept.begin();) {
+      --it;
+      if (it->first <= previous_posed) break;
+      frames.push_back(&it->second);
+    }
+    ScaleLogEntry entry;
+    entry.segment = segment;
+    entry.event = "backfill";
+    const ReverseRun run = frames.empty() ? ReverseRun() : RunReverse(frames);
+    report.reverse_init_frame = run.init_frame;
+
+    std::vector<Rigid3d> from, to;
+    for (const auto& [index, pose] : run.poses) {
+      auto fwd = forward.find(index);
+      if (index < first_pose || fwd == forward.end() || fwd->second.segment != segment) continue;
+      from.push_back(pose);
+      to.push_back(fwd->second.world_from_rig);
+    }
+    report.overlap_poses = static_cast<int>(from.size());
+    if (run.init_frame < 0) {
+      report.note = "the reverse pass found no window to initialise in";
+    } else if (report.overlap_poses < reverse.min_overlap_poses) {
+      report.note = StrCat("the reverse pass shares ", report.overlap_poses, " posed frames with segment ",
+                           segment, " (", reverse.min_overlap_poses, " needed to align)");
+    } else {
+      report.forward_from_reverse = AlignPosesSim3(from, to, &report.align_rms_m);
+      const double scale = report.forward_from_reverse.scale;
+      if (!(scale >= reverse.min_scale && scale <= reverse.max_scale)) {
+        report.note = StrCat("alignment refused: scale ", FormatFixed(scale, 4), " outside [",
+                             FormatFixed(reverse.min_scale, 2), ", ", FormatFixed(reverse.max_scale, 2), "]");
+        report.forward_from_reverse = Sim3d();
+      } else {
+        report.applied = true;
+      }
+    }
+    if (report.applied) {
+      const Sim3d& sim = report.forward_from_reverse;
+      for (const auto& [index, pose] : run.poses) {
+        if (index <= previous_posed || index >= first_pose) continue;
+        const RigFrameObservations& frame = kept.at(index);
+        result->frames.push_back({index, frame.t_ns, segment, sim.TransformPose(pose)});
+        ++report.frames_posed;
+        if (report.first_frame_posed < 0) report.first_frame_posed = index;
+      }
+      for (const KeyframeEstimate& kf : run.keyframes) {
+        if (kf.frame_index <= previous_posed || kf.frame_index >= first_pose) continue;
+        KeyframeEstimate out = kf;
+        out.segment = segment;
+        out.world_from_rig = sim.TransformPose(kf.world_from_rig);
+        for (Eigen::Vector3d& p : out.observation_points) p = sim * p;
+        result->keyframes.push_back(std::move(out));
+      }
+      for (const MapLandmark& lm : run.landmarks) result->landmarks.push_back({lm.id, sim * lm.position_world});
+      report.note = StrCat("frames ", report.first_frame_posed, "-", first_pose - 1, " (", report.frames_posed,
+                           " of ", first_pose - previous_posed - 1,
+                           ") posed backwards from the reverse initialisation at frame ", run.init_frame,
+                           ", with the scale of segment ", segment, " applied back (Sim3 scale ",
+                           FormatFixed(sim.scale, 4), ", rms ", FormatFixed(report.align_rms_m, 3), " m over ",
+                           report.overlap_poses, " frames)");
+    }
+    entry.frame_index = report.applied ? report.first_frame_posed : first_pose;
+    auto first_frame = kept.find(entry.frame_index);
+    entry.t_ns = first_frame != kept.end() ? first_frame->second.t_ns : 0;
+    entry.applied = report.applied;
+    entry.applied_ratio = report.forward_from_reverse.scale;
+    entry.note = report.note;
+    result->scale_log.push_back(std::move(entry));
+    result->reports.push_back(std::move(report));
+  }
+
+  ReversePassResult Run() const {
+    ReversePassResult result;
+    // Segments in the order of their first pose.
+    std::vector<std::pair<int, int>> order;  // first posed frame, segment
+    for (const auto& [segment, first] : first_posed) order.emplace_back(first, segment);
+    std::sort(order.begin(), order.end());
+    for (const auto& [first, segment] : order) {
+      auto before = forward.lower_bound(first);
+      const int previous_posed = before == forward.begin() ? -1 : std::prev(before)->first;
+      if (previous_posed + 1 >= first) continue;
+      if (kept.lower_bound(previous_posed + 1) == kept.lower_bound(first)) continue;  // nothing kept between
+      Complete(segment, first, previous_posed, &result);
+    }
+    std::sort(result.frames.begin(), result.frames.end(),
+              [](const BackfilledFrame& a, const BackfilledFrame& b) { return a.frame_index < b.frame_index; });
+    return result;
+  }
+};
+
+ReversePass::ReversePass(const Rig& rig, const InitializerOptions& init_options, const BackendOptions& options,
+                         const ReversePassOptions& reverse_options, int threads)
+    : impl_(std::make_unique<Impl>(rig, init_options, options, reverse_options, threads)) {}
+ReversePass::~ReversePass() = default;
+
+void ReversePass::Add(const RigFrameObservations& frame, const FrameEstimate& estimate) {
+  impl_->Add(frame, estimate);
+}
+
+ReversePassResult ReversePass::Run() { return impl_->Run(); }
+
+}  // namespace mcvo
