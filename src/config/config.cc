@@ -83,6 +83,14 @@ void Visit(V& v, CameraSfmOptions* o) {
 }
 
 template <typename V>
+void Visit(V& v, RigConsistencyOptions* o) {
+  v.Field("min_landmarks", &o->min_landmarks);
+  v.Field("disagreement_sigmas", &o->disagreement_sigmas);
+  v.Field("min_disagreement", &o->min_disagreement);
+  v.Field("max_shape_residual", &o->max_shape_residual);
+}
+
+template <typename V>
 void Visit(V& v, InitializerOptions* o) {
   v.Field("window_size", &o->window_size);
   v.Field("min_correspondences", &o->min_correspondences);
@@ -97,6 +105,7 @@ void Visit(V& v, InitializerOptions* o) {
   v.Field("max_relative_scale_sigma", &o->max_relative_scale_sigma);
   v.Field("max_rig_ba_iterations", &o->max_rig_ba_iterations);
   v.Section("sfm", &o->sfm);
+  v.Section("consistency", &o->consistency);
 }
 
 template <typename V>

@@ -485,6 +485,32 @@ struct Initializer::Impl {
     return relative;
   }
 
+  // Step 6: the first used camera that disagrees with the rig solution, as
+  // the reason the window waits; nullopt when all agree.
+  std::optional<std::string> InconsistentCamera(const std::vector<int>& used,
+                                                const std::vector<CameraSfmResult>& sfm_of_used,
+                                                const std::vector<double>& scales, const RigScaleResult& solve,
+                                                const std::vector<Rigid3d>& world_from_rig,
+                                                const std::map<uint64_t, Eigen::Vector3d>& points,
+                                                const std::map<uint64_t, int>& point_camera) const {
+    const std::vector<double> relative = RelativeSigmas(solve);
+    for (size_t k = 0; k < used.size(); ++k) {
+      int landmarks = 0;
+      for (const auto& [id, point] : points) {
+        auto it = point_camera.find(id);
+        landmarks += it != point_camera.end() && it->second == used[k] ? 1 : 0;
+      }
+      const Camera& camera = rig.cameras[static_cast<size_t>(used[k])];
+      const CameraConsistency consistency = MeasureCameraConsistency(
+          world_from_rig, camera.cam_from_rig, sfm_of_used[k].anchor_from_cam, scales[k],
+          k < relative.size() ? relative[k] : std::numeric_limits<double>::infinity(), landmarks);
+      if (std::optional<std::string> failure = CameraConsistencyFailure(consistency, options.consistency)) {
+        return StrCat("rig solution rejected: ", camera.name, ": ", *failure);
+      }
+    }
+    return std::nullopt;
+  }
+
   std::optional<InitializationResult> Initialise(int anchor, const std::vector<bool>& passing) {
     const int newest = static_cast<int>(window.size()) - 1;
     std::vector<int> candidates;
@@ -614,6 +640,11 @@ struct Initializer::Impl {
       }
       world_from_rig = ba.world_from_rig;
       points = ba.points;
+      if (std::optional<std::string> inconsistent =
+              InconsistentCamera(used, sfm_of_used, scales, result.rig_scale, world_from_rig, points, point_camera)) {
+        reason = *inconsistent;
+        return std::nullopt;
+      }
     } else {
       result.relative_scale_sigma = RelativeSigmas(result.rig_scale)[static_cast<size_t>(principal_k)];
       if (!(result.relative_scale_sigma <= options.max_relative_scale_sigma)) {

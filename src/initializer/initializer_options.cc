@@ -38,6 +38,10 @@ void InitializerOptions::Check() const {
   CheckAtLeast("/initializer/sfm/min_points_for_pnp", sfm.min_points_for_pnp, 4);
   CheckPositive("/initializer/sfm/max_reprojection_px", sfm.max_reprojection_px);
   CheckAtLeast("/initializer/sfm/max_ba_iterations", sfm.max_ba_iterations, 0);
+  CheckAtLeast("/initializer/consistency/min_landmarks", consistency.min_landmarks, 0);
+  CheckPositive("/initializer/consistency/disagreement_sigmas", consistency.disagreement_sigmas);
+  CheckAtLeast("/initializer/consistency/min_disagreement", consistency.min_disagreement, 0.0);
+  CheckPositive("/initializer/consistency/max_shape_residual", consistency.max_shape_residual);
   CheckPositive("/initializer/sfm/ba_huber_px", sfm.ba_huber_px);
 }
 

@@ -49,7 +49,13 @@
 //  is kept (WaitingReason). So under pure translation without overlapping
 //  views the initializer waits, however long, instead of returning a scale
 //  the data do not hold.
-//  6. Result: metric rig poses of the window frames l..r, metric landmarks.
+//  6. Consistency (rig_consistency.h), after the rig BA: every used camera
+//     must have a positive, finite scale, at least consistency.min_landmarks
+//     landmarks in the BA, a scale that agrees with the one the BA implies
+//     for it within its uncertainty, and its own SfM motion the shape of the
+//     rig's. A window with a camera that fails waits (the reason names the
+//     camera and the test), so a broken rig solution is never accepted.
+//  7. Result: metric rig poses of the window frames l..r, metric landmarks.
 //
 // World frame of the result: the rig frame at the anchor frame l.
 // Deterministic at any thread count.
@@ -67,6 +73,7 @@
 #include "mcvo/geometry/rigid3d.h"
 #include "mcvo/initializer/camera_sfm.h"
 #include "mcvo/initializer/observations.h"
+#include "mcvo/initializer/rig_consistency.h"
 #include "mcvo/initializer/rig_scale.h"
 
 namespace mcvo {
@@ -95,6 +102,8 @@ struct InitializerOptions {
   // Rig window bundle adjustment after the scale solve (rig_window_ba.h); 0: off.
   int max_rig_ba_iterations = 50;
   CameraSfmOptions sfm;
+  // Step 6: every used camera must agree with the rig solution (rig_consistency.h).
+  RigConsistencyOptions consistency;
 
   // Throws InputError naming the field by its config path ("/initializer/...").
   void Check() const;
