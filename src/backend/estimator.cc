@@ -1037,4 +1037,6 @@ std::vector<MapLandmark> Estimator::TakeFinishedLandmarks() {
 
 std::vector<KeyframeEstimate> Estimator::Finish() { return impl_->Finish(); }
 
+double Estimator::SmallestRejectedScaleSigma() const { return impl_->initializer.SmallestRejectedScaleSigma(); }
+
 }  // namespace mcvo

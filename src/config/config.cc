@@ -103,6 +103,7 @@ void Visit(V& v, InitializerOptions* o) {
   v.Field("min_singular_value_ratio", &o->min_singular_value_ratio);
   v.Field("max_rms_residual_m", &o->max_rms_residual_m);
   v.Field("max_relative_scale_sigma", &o->max_relative_scale_sigma);
+  v.Field("max_relative_scale_sigma_fallback", &o->max_relative_scale_sigma_fallback);
   v.Field("max_rig_ba_iterations", &o->max_rig_ba_iterations);
   v.Section("sfm", &o->sfm);
   v.Section("consistency", &o->consistency);

@@ -438,16 +438,7 @@ struct Initializer::Impl {
         return false;
       }
       if (!(relative[worst] <= kMaxCameraRelativeSigma)) {
-        used->erase(used->begin() + static_cast<std::ptrdiff_t>(worst));
-        sfm_of_used->erase(sfm_of_used->begin() + static_cast<std::ptrdiff_t>(worst));
-        tracks->erase(tracks->begin() + static_cast<std::ptrdiff_t>(worst));
-        std::vector<ScaleMeasurement> kept;
-        for (ScaleMeasurement m : *measurements) {
-          if (m.camera == static_cast<int>(worst)) continue;
-          if (m.camera > static_cast<int>(worst)) --m.camera;
-          kept.push_back(m);
-        }
-        measurements->swap(kept);
+        DropCamera(worst, used, sfm_of_used, tracks, measurements);
         continue;
       }
       if (!solve.observable) {
@@ -475,6 +466,21 @@ struct Initializer::Impl {
     return true;
   }
 
+  // Leaves camera k (an index into used) out of the solve.
+  static void DropCamera(size_t k, std::vector<int>* used, std::vector<CameraSfmResult>* sfm_of_used,
+                         std::vector<CameraWindowTrack>* tracks, std::vector<ScaleMeasurement>* measurements) {
+    used->erase(used->begin() + static_cast<std::ptrdiff_t>(k));
+    sfm_of_used->erase(sfm_of_used->begin() + static_cast<std::ptrdiff_t>(k));
+    tracks->erase(tracks->begin() + static_cast<std::ptrdiff_t>(k));
+    std::vector<ScaleMeasurement> kept;
+    for (ScaleMeasurement m : *measurements) {
+      if (m.camera == static_cast<int>(k)) continue;
+      if (m.camera > static_cast<int>(k)) --m.camera;
+      kept.push_back(m);
+    }
+    measurements->swap(kept);
+  }
+
   // sigma_k / s_k per camera of a solution (infinity for a scale that is not positive).
   static std::vector<double> RelativeSigmas(const RigScaleResult& solve) {
     std::vector<double> relative(solve.solution.size());
@@ -485,34 +491,40 @@ struct Initializer::Impl {
     return relative;
   }
 
-  // Step 6: the first used camera that disagrees with the rig solution, as
-  // the reason the window waits; nullopt when all agree.
-  std::optional<std::string> InconsistentCamera(const std::vector<int>& used,
-                                                const std::vector<CameraSfmResult>& sfm_of_used,
-                                                const std::vector<double>& scales, const RigScaleResult& solve,
-                                                const std::vector<Rigid3d>& world_from_rig,
-                                                const std::map<uint64_t, Eigen::Vector3d>& points,
-                                                const std::map<uint64_t, int>& point_camera) const {
+  // Step 6: the used camera that disagrees most with the rig solution
+  // (its index into used, with `reason` naming it and the test), or
+  // used.size() when all agree.
+  size_t InconsistentCamera(const std::vector<int>& used, const std::vector<CameraSfmResult>& sfm_of_used,
+                            const std::vector<double>& scales, const RigScaleResult& solve,
+                            const std::vector<Rigid3d>& world_from_rig,
+                            const std::map<uint64_t, Eigen::Vector3d>& points,
+                            const std::map<uint64_t, int>& point_camera) {
     const std::vector<double> relative = RelativeSigmas(solve);
+    std::map<int, int> landmarks;  // per rig camera
+    for (const auto& [id, point] : points) {
+      auto it = point_camera.find(id);
+      if (it != point_camera.end()) ++landmarks[it->second];
+    }
+    size_t worst = used.size();
+    double worst_badness = 0.0;
     for (size_t k = 0; k < used.size(); ++k) {
-      int landmarks = 0;
-      for (const auto& [id, point] : points) {
-        auto it = point_camera.find(id);
-        landmarks += it != point_camera.end() && it->second == used[k] ? 1 : 0;
-      }
       const Camera& camera = rig.cameras[static_cast<size_t>(used[k])];
       const CameraConsistency consistency = MeasureCameraConsistency(
           world_from_rig, camera.cam_from_rig, sfm_of_used[k].anchor_from_cam, scales[k],
-          k < relative.size() ? relative[k] : std::numeric_limits<double>::infinity(), landmarks);
-      if (std::optional<std::string> failure = CameraConsistencyFailure(consistency, options.consistency)) {
-        return StrCat("rig solution rejected: ", camera.name, ": ", *failure);
+          k < relative.size() ? relative[k] : std::numeric_limits<double>::infinity(), landmarks[used[k]]);
+      const std::optional<std::string> failure = CameraConsistencyFailure(consistency, options.consistency);
+      if (!failure) continue;
+      const double badness = CameraConsistencyBadness(consistency, options.consistency);
+      if (worst == used.size() || badness > worst_badness) {
+        worst = k;
+        worst_badness = badness;
+        reason = StrCat("rig solution rejected: ", camera.name, ": ", *failure);
       }
     }
-    return std::nullopt;
+    return worst;
   }
 
   std::optional<InitializationResult> Initialise(int anchor, const std::vector<bool>& passing) {
-    const int newest = static_cast<int>(window.size()) - 1;
     std::vector<int> candidates;
     for (int c = 0; c < NumCameras(); ++c) {
       if (passing[static_cast<size_t>(c)]) candidates.push_back(c);
@@ -556,7 +568,39 @@ struct Initializer::Impl {
     std::vector<ScaleMeasurement> measurements = CrossCameraMeasurements(
         anchor, used, sfm_of_used, &result.cross_camera_matches, &result.cross_camera_scale_spread);
 
-    if (!SolveScale(&used, &sfm_of_used, &tracks, &measurements, &result)) return std::nullopt;
+    // Scale, then the metric window; a camera that disagrees with the rig
+    // solution (step 6) is left out and both are solved again without it.
+    std::string left_out;
+    for (;;) {
+      if (!SolveScale(&used, &sfm_of_used, &tracks, &measurements, &result)) {
+        if (!left_out.empty()) reason = StrCat(reason, " (after leaving out ", left_out, ")");
+        return std::nullopt;
+      }
+      size_t inconsistent = used.size();
+      if (SolveMetricWindow(anchor, used, sfm_of_used, &result, &inconsistent)) {
+        result.attempts = attempts;
+        return result;
+      }
+      if (inconsistent >= used.size()) return std::nullopt;  // reason set
+      left_out += StrCat(left_out.empty() ? "" : "; ", reason);
+      DropCamera(inconsistent, &used, &sfm_of_used, &tracks, &measurements);
+    }
+  }
+
+  // Steps 5 to 7 for the cameras `used` and the scale solve in *result:
+  // principal camera, metric poses and landmarks, rig window BA, the
+  // consistency of every camera. false with `reason` set when the window
+  // waits; *inconsistent is then the index (into used) of the camera that
+  // disagrees most with the solution, or used.size() when the failure is
+  // not a camera's.
+  bool SolveMetricWindow(int anchor, const std::vector<int>& used, const std::vector<CameraSfmResult>& sfm_of_used,
+                         InitializationResult* out, size_t* inconsistent) {
+    const int newest = static_cast<int>(window.size()) - 1;
+    InitializationResult& result = *out;
+    *inconsistent = used.size();
+    result.frame_index.clear();
+    result.t_ns.clear();
+    result.landmarks.clear();
 
     // Principal camera: the most features tracked through every frame l..r.
     int principal_k = 0;
@@ -629,29 +673,29 @@ struct Initializer::Impl {
           AdjustRigWindow(cam_from_rig, 0, world_from_rig, points, observations, ba_options);
       if (!ba.ok) {
         reason = ba.reason;
-        return std::nullopt;
+        return false;
       }
       result.relative_scale_sigma = ba.travel_relative_sigma;
+      *inconsistent = InconsistentCamera(used, sfm_of_used, scales, result.rig_scale, ba.world_from_rig, ba.points,
+                                         point_camera);
+      if (*inconsistent < used.size()) return false;
       if (!(ba.travel_relative_sigma <= options.max_relative_scale_sigma)) {
         reason = StrCat("scale poorly observable: rig bundle adjustment gives a scale sigma of ",
                         FormatFixed(100.0 * ba.travel_relative_sigma, 2), " % > ",
                         FormatFixed(100.0 * options.max_relative_scale_sigma, 2), " %");
-        return std::nullopt;
+        // Rejected for this alone: the best such window is the offline fallback's.
+        smallest_rejected_sigma = std::min(smallest_rejected_sigma, ba.travel_relative_sigma);
+        return false;
       }
       world_from_rig = ba.world_from_rig;
       points = ba.points;
-      if (std::optional<std::string> inconsistent =
-              InconsistentCamera(used, sfm_of_used, scales, result.rig_scale, world_from_rig, points, point_camera)) {
-        reason = *inconsistent;
-        return std::nullopt;
-      }
     } else {
       result.relative_scale_sigma = RelativeSigmas(result.rig_scale)[static_cast<size_t>(principal_k)];
       if (!(result.relative_scale_sigma <= options.max_relative_scale_sigma)) {
         reason = StrCat("scale poorly observable: principal camera ", principal.name,
                         " has a scale sigma of ", FormatFixed(100.0 * result.relative_scale_sigma, 2),
                         " % > ", FormatFixed(100.0 * options.max_relative_scale_sigma, 2), " %");
-        return std::nullopt;
+        return false;
       }
     }
     result.world_from_rig = world_from_rig;
@@ -670,8 +714,7 @@ struct Initializer::Impl {
       result.camera_used[static_cast<size_t>(used[k])] = true;
       result.camera_scales[static_cast<size_t>(used[k])] = scales[k];
     }
-    result.attempts = attempts;
-    return result;
+    return true;
   }
 
   const Rig rig;
@@ -682,6 +725,7 @@ struct Initializer::Impl {
   std::string reason;
   bool spent = false;
   int attempts = 0;
+  double smallest_rejected_sigma = std::numeric_limits<double>::infinity();
 };
 
 Initializer::Initializer(const Rig& rig, const InitializerOptions& options, int threads)
@@ -696,5 +740,7 @@ std::optional<InitializationResult> Initializer::AddFrame(const RigFrameObservat
 const std::string& Initializer::WaitingReason() const { return impl_->reason; }
 
 void Initializer::Reset() { impl_->Reset(); }
+
+double Initializer::SmallestRejectedScaleSigma() const { return impl_->smallest_rejected_sigma; }
 
 }  // namespace mcvo

@@ -61,4 +61,16 @@ std::optional<std::string> CameraConsistencyFailure(const CameraConsistency& c,
   return std::nullopt;
 }
 
+double CameraConsistencyBadness(const CameraConsistency& c, const RigConsistencyOptions& options) {
+  if (!(c.scale > 0.0) || !std::isfinite(c.scale)) return std::numeric_limits<double>::infinity();
+  const double bound = std::max(options.disagreement_sigmas * c.relative_sigma, options.min_disagreement);
+  double badness = std::abs(c.disagreement) / bound;
+  badness = std::max(badness, c.shape_residual / options.max_shape_residual);
+  if (c.landmarks < options.min_landmarks) {
+    badness = std::max(badness, 1.0 + static_cast<double>(options.min_landmarks - c.landmarks) /
+                                          std::max(1, options.min_landmarks));
+  }
+  return std::isfinite(badness) ? badness : std::numeric_limits<double>::infinity();
+}
+
 }  // namespace mcvo

@@ -18,7 +18,6 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "mcvo/backend/estimator.h"
-#include "mcvo/backend/reverse_pass.h"
 #include "mcvo/colmap/colmap_model.h"
 #include "mcvo/config/config.h"
 #include "mcvo/eval/report.h"
@@ -37,6 +36,7 @@
 #include "mcvo/util/progress.h"
 #include "mcvo/util/sha256.h"
 #include "mcvo/util/strings.h"
+#include "odometry_stage.h"
 
 namespace mcvo {
 namespace {
@@ -141,88 +141,6 @@ std::string CsvQuote(const std::string& text) {
   }
   return out + "\"";
 }
-
-// What the forward pass made of one frame (its pose updates are in the run's
-// pose map), for frame_stats.csv and timing.csv.
-struct FrameRecord {
-  FrameEstimate estimate;
-  size_t cross_camera = 0;
-  double frontend_seconds = 0.0;
-  double backend_seconds = 0.0;
-};
-
-// Merges the reverse passes' poses, keyframes and landmarks into the run's
-// (a landmark the forward pass has keeps the forward position) and their
-// log lines into the scale log. Returns the frames it posed, with their segment.
-std::map<int, int> ApplyReversePass(ReversePassResult result, std::map<int, StampedPose>* poses,
-                                    std::vector<KeyframeEstimate>* keyframes,
-                                    std::map<int64_t, Eigen::Vector3d>* landmarks,
-                                    std::vector<ScaleLogEntry>* scale_log) {
-  std::map<int, int> posed;
-  for (const BackfilledFrame& frame : result.frames) {
-    StampedPose pose;
-    pose.t_ns = frame.t_ns;
-    pose.frame_index = frame.frame_index;
-    pose.world_from_body = frame.world_from_rig;
-    (*poses)[frame.frame_index] = pose;
-    posed[frame.frame_index] = frame.segment;
-  }
-  for (KeyframeEstimate& kf : result.keyframes) keyframes->push_back(std::move(kf));
-  for (const MapLandmark& lm : result.landmarks) landmarks->emplace(lm.id, lm.position_world);
-  for (const ReversePassReport& report : result.reports) {
-    if (report.applied) {
-      MCVO_LOG(kInfo, "run: reverse pass before segment ", report.segment, ": ", report.note);
-    } else {
-      MCVO_LOG(kWarning, "run: reverse pass before segment ", report.segment, ": ", report.note);
-    }
-  }
-  for (ScaleLogEntry& entry : result.scale_log) scale_log->push_back(std::move(entry));
-  std::stable_sort(scale_log->begin(), scale_log->end(),
-                   [](const ScaleLogEntry& a, const ScaleLogEntry& b) { return a.frame_index < b.frame_index; });
-  return posed;
-}
-
-std::string FrameStatsCsv(const Rig& rig, const std::vector<FrameRecord>& records,
-                          const std::map<int, StampedPose>& poses, const std::map<int, int>& reverse_posed) {
-  std::string csv =
-      "frame,t_ns,state,segment,keyframe,has_pose,pose_source,pnp_inliers,landmarks,ba_iterations,"
-      "ba_initial_cost,ba_final_cost";
-  for (const Camera& camera : rig.cameras) csv += ",features_" + camera.name;
-  for (const Camera& camera : rig.cameras) csv += ",landmarks_" + camera.name;
-  csv += ",cross_camera,note\n";
-  for (const FrameRecord& record : records) {
-    const FrameEstimate& est = record.estimate;
-    auto reverse = reverse_posed.find(est.frame_index);
-    const bool has_pose = poses.count(est.frame_index) != 0;
-    const char* source = reverse != reverse_posed.end() ? "reverse" : has_pose ? "forward" : "none";
-    const int segment = reverse != reverse_posed.end() ? reverse->second : est.segment;
-    csv += StrCat(est.frame_index, ",", est.t_ns, ",", EnumToName(kEstimatorStateNames, est.state), ",", segment,
-                  ",", est.keyframe ? 1 : 0, ",", has_pose ? 1 : 0, ",", source, ",", est.pnp_inliers, ",",
-                  est.num_landmarks, ",", est.ba_iterations, ",", FormatDouble(est.ba_initial_cost), ",",
-                  FormatDouble(est.ba_final_cost));
-    for (int n : est.features_per_camera) csv += StrCat(",", n);
-    for (int n : est.landmarks_per_camera) csv += StrCat(",", n);
-    csv += StrCat(",", record.cross_camera, ",", CsvQuote(est.waiting_reason), "\n");
-  }
-  return csv;
-}
-
-std::string TimingCsv(const std::vector<FrameRecord>& records) {
-  std::string csv =
-      "frame,t_ns,frontend_s,initializer_s,pnp_s,ba_s,marginalization_s,scale_correction_s,backend_s\n";
-  for (const FrameRecord& record : records) {
-    const FrameEstimate& est = record.estimate;
-    csv += StrCat(est.frame_index, ",", est.t_ns, ",", FormatFixed(record.frontend_seconds, 6), ",",
-                  FormatFixed(est.seconds_initializer, 6), ",", FormatFixed(est.seconds_pnp, 6), ",",
-                  FormatFixed(est.seconds_ba, 6), ",", FormatFixed(est.seconds_marginalization, 6), ",",
-                  FormatFixed(est.seconds_scale, 6), ",", FormatFixed(record.backend_seconds, 6), "\n");
-  }
-  return csv;
-}
-
-struct StageSeconds {
-  double frontend = 0, initializer = 0, pnp = 0, ba = 0, marginalization = 0, scale = 0, backend = 0;
-};
 
 void CheckOutputFolder(const std::filesystem::path& out_dir, bool force) {
   std::error_code ec;
@@ -496,7 +414,6 @@ RunSummary RunPipeline(const RunRequest& request) {
   } else {
     tracker = std::make_unique<MultiCameraTracker>(rig, index.masks, options.frontend, threads);
   }
-  Estimator estimator(rig, options.initializer, options.backend, threads);
   // Loop closure's vocabulary, read now so that a bad file stops the run
   // before any work.
   const std::filesystem::path vocabulary_path = RunVocabularyPath(options);
@@ -562,69 +479,26 @@ RunSummary RunPipeline(const RunRequest& request) {
     }
   } join_on_exit{&producer, &queue};
 
-  // Consumer: the estimator, in frame order.
-  std::map<int, StampedPose> poses;  // frame index -> latest pose
-  std::vector<KeyframeEstimate> keyframes;
-  std::map<int64_t, Eigen::Vector3d> landmarks;  // id -> latest final position
-  std::vector<ScaleLogEntry> scale_log;
-  std::vector<FrameRecord> records;
-  std::optional<ReversePass> reverse_pass;
-  if (options.backend.reverse_pass) {
-    ReversePassOptions reverse_options;
-    reverse_options.overlap_frames = options.backend.reverse_pass_overlap_frames;
-    reverse_pass.emplace(rig, options.initializer, options.backend, reverse_options, threads);
-  }
-  StageSeconds totals;
+  // Consumer: the odometry stage, in frame order.
+  pipeline_internal::OdometryStage odometry_stage(rig, options, threads);
   RunSummary summary;
   ProgressBar progress("run", total_frames, "frames");
   const Clock::time_point run_start = Clock::now();
-  int last_segment = 0;
   while (std::optional<FrontendItem> item = queue.Pop()) {
-    const Clock::time_point start = Clock::now();
-    const RigFrameObservations obs = ToObservations(rig, item->frame);
-    FrameEstimate est = estimator.AddFrame(obs);
-    const double backend_seconds = SecondsSince(start);
-    for (const PoseUpdate& update : est.poses) {
-      StampedPose pose;
-      pose.t_ns = update.t_ns;
-      pose.frame_index = update.frame_index;
-      pose.world_from_body = update.world_from_rig;
-      poses[update.frame_index] = pose;
-    }
-    if (reverse_pass) reverse_pass->Add(obs, est);
-    for (KeyframeEstimate& kf : estimator.TakeFinishedKeyframes()) keyframes.push_back(std::move(kf));
-    for (const MapLandmark& lm : estimator.TakeFinishedLandmarks()) landmarks[lm.id] = lm.position_world;
-    for (ScaleLogEntry& entry : estimator.TakeScaleLog()) scale_log.push_back(std::move(entry));
-    last_segment = std::max(last_segment, est.segment);
-    totals.frontend += item->seconds;
-    totals.initializer += est.seconds_initializer;
-    totals.pnp += est.seconds_pnp;
-    totals.ba += est.seconds_ba;
-    totals.marginalization += est.seconds_marginalization;
-    totals.scale += est.seconds_scale;
-    totals.backend += backend_seconds;
-    est.poses.clear();
-    records.push_back({std::move(est), obs.cross_camera.size(), item->seconds, backend_seconds});
+    odometry_stage.Add(ToObservations(rig, item->frame), item->seconds);
     ++summary.frames;
     progress.Update(summary.frames);
   }
   progress.Finish();
-  for (KeyframeEstimate& kf : estimator.Finish()) keyframes.push_back(std::move(kf));
-  for (const MapLandmark& lm : estimator.TakeFinishedLandmarks()) landmarks[lm.id] = lm.position_world;
-  for (ScaleLogEntry& entry : estimator.TakeScaleLog()) scale_log.push_back(std::move(entry));
-  std::map<int, int> reverse_posed;  // frame index -> segment, of the frames the reverse pass posed
-  double reverse_seconds = 0.0;
-  if (reverse_pass) {
-    const Clock::time_point start = Clock::now();
-    reverse_posed = ApplyReversePass(reverse_pass->Run(), &poses, &keyframes, &landmarks, &scale_log);
-    reverse_seconds = SecondsSince(start);
-    reverse_pass.reset();
-  }
-  std::stable_sort(
-      keyframes.begin(), keyframes.end(),
-      [](const KeyframeEstimate& a, const KeyframeEstimate& b) { return a.frame_index < b.frame_index; });
-  const std::string stats_csv = FrameStatsCsv(rig, records, poses, reverse_posed);
-  const std::string timing_csv = TimingCsv(records);
+  pipeline_internal::OdometryOutput odometry = odometry_stage.Finish();
+  std::map<int, StampedPose>& poses = odometry.poses;
+  std::vector<KeyframeEstimate>& keyframes = odometry.keyframes;
+  std::map<int64_t, Eigen::Vector3d>& landmarks = odometry.landmarks;
+  const std::vector<ScaleLogEntry>& scale_log = odometry.scale_log;
+  const std::map<int, int>& reverse_posed = odometry.reverse_posed;
+  const pipeline_internal::StageSeconds& totals = odometry.totals;
+  const std::string stats_csv = pipeline_internal::FrameStatsCsv(rig, odometry);
+  const std::string timing_csv = pipeline_internal::TimingCsv(odometry);
   const double vo_seconds = SecondsSince(run_start);
 
   // Loop closure, then every pose and landmark moved with its keyframe's
@@ -678,10 +552,10 @@ RunSummary RunPipeline(const RunRequest& request) {
   summary.frames_per_second = summary.seconds > 0 ? summary.frames / summary.seconds : 0.0;
   summary.posed_frames = static_cast<int>(poses.size());
   summary.keyframes = static_cast<int>(keyframes.size());
-  summary.segments = last_segment + 1;
+  summary.segments = odometry.segments;
   {
     std::vector<std::string> unposed_reasons;
-    for (const FrameRecord& record : records) {
+    for (const pipeline_internal::FrameRecord& record : odometry.records) {
       if (poses.count(record.estimate.frame_index) == 0) unposed_reasons.push_back(record.estimate.waiting_reason);
     }
     summary.warning = RunPosingWarning(summary.frames, summary.posed_frames, unposed_reasons);
@@ -901,6 +775,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   result["keyframes"] = summary.keyframes;
   result["segments"] = summary.segments;
   result["frames_posed_by_reverse_pass"] = reverse_posed.size();
+  if (odometry.fallback_sigma > 0.0) result["initializer_fallback_sigma"] = odometry.fallback_sigma;
   if (!summary.warning.empty()) result["warning"] = summary.warning;
   if (summary.evaluated) {
     result["ate_rmse_m"] = summary.ate_rmse_m;
@@ -937,7 +812,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   timing["backend_s"] = totals.backend / n;
   timing["colmap_export_s_total"] = colmap_seconds;
   timing["odometry_s_total"] = vo_seconds;
-  timing["reverse_pass_s_total"] = reverse_seconds;
+  timing["reverse_pass_s_total"] = odometry.reverse_seconds;
   if (vocabulary) {
     const double keyframe_count = std::max<size_t>(1, keyframes.size());
     timing["loop_image_read_s_per_keyframe"] = loops.image_seconds / keyframe_count;

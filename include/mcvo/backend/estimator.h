@@ -159,6 +159,8 @@ class Estimator {
   // Ends the run: the keyframes still in the window, oldest first; every
   // remaining landmark goes to TakeFinishedLandmarks.
   std::vector<KeyframeEstimate> Finish();
+  // Initializer::SmallestRejectedScaleSigma of its initializer.
+  double SmallestRejectedScaleSigma() const;
 
  private:
   struct Impl;

@@ -99,6 +99,10 @@ struct InitializerOptions {
   // camera's scale in the linear solve (rig_scale.h "Uncertainty") and of the
   // distance travelled after the rig window BA (rig_window_ba.h).
   double max_relative_scale_sigma = 0.005;
+  // Offline fallback (mcvo run): when the whole sequence posed no frame and
+  // some window failed only the bound above, with a std of at most this, the
+  // sequence is run again with this as the bound (logged). 0: off.
+  double max_relative_scale_sigma_fallback = 0.05;
   // Rig window bundle adjustment after the scale solve (rig_window_ba.h); 0: off.
   int max_rig_ba_iterations = 50;
   CameraSfmOptions sfm;
@@ -162,6 +166,11 @@ class Initializer {
   const std::string& WaitingReason() const;
   // Empties the window (after tracking loss, to initialise again).
   void Reset();
+  // The smallest scale std (rig BA) of the windows rejected only because it
+  // exceeded max_relative_scale_sigma, since construction (Reset() keeps
+  // it); infinity when none was. Decides whether the offline fallback
+  // (max_relative_scale_sigma_fallback) can help.
+  double SmallestRejectedScaleSigma() const;
 
  private:
   struct Impl;

@@ -56,4 +56,10 @@ CameraConsistency MeasureCameraConsistency(const std::vector<Rigid3d>& world_fro
 std::optional<std::string> CameraConsistencyFailure(const CameraConsistency& c,
                                                     const RigConsistencyOptions& options);
 
+// How far the camera is beyond the gate: the largest of its test values over
+// their bounds (infinite for a scale that is not positive and finite);
+// above 1 exactly when CameraConsistencyFailure reports a failure. Picks the
+// camera to leave out first.
+double CameraConsistencyBadness(const CameraConsistency& c, const RigConsistencyOptions& options);
+
 }  // namespace mcvo

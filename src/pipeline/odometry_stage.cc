@@ -1,0 +1,203 @@
+#include "odometry_stage.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <utility>
+
+#include "mcvo/util/logging.h"
+#include "mcvo/util/strings.h"
+
+namespace mcvo::pipeline_internal {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::string CsvQuote(const std::string& text) {
+  std::string out = "\"";
+  for (char ch : text) {
+    if (ch == '"') out += '"';
+    out += ch;
+  }
+  return out + "\"";
+}
+
+std::unique_ptr<ReversePass> MakeReversePass(const Rig& rig, const PipelineOptions& options,
+                                             const InitializerOptions& init_options, int threads) {
+  if (!options.backend.reverse_pass) return nullptr;
+  ReversePassOptions reverse_options;
+  reverse_options.overlap_frames = options.backend.reverse_pass_overlap_frames;
+  return std::make_unique<ReversePass>(rig, init_options, options.backend, reverse_options, threads);
+}
+
+// Merges the reverse passes' poses, keyframes and landmarks (a landmark the
+// forward pass has keeps the forward position) and their log lines.
+void ApplyReversePass(ReversePassResult result, OdometryOutput* out) {
+  for (const BackfilledFrame& frame : result.frames) {
+    StampedPose pose;
+    pose.t_ns = frame.t_ns;
+    pose.frame_index = frame.frame_index;
+    pose.world_from_body = frame.world_from_rig;
+    out->poses[frame.frame_index] = pose;
+    out->reverse_posed[frame.frame_index] = frame.segment;
+  }
+  for (KeyframeEstimate& kf : result.keyframes) out->keyframes.push_back(std::move(kf));
+  for (const MapLandmark& lm : result.landmarks) out->landmarks.emplace(lm.id, lm.position_world);
+  for (const ReversePassReport& report : result.reports) {
+    if (report.applied) {
+      MCVO_LOG(kInfo, "run: reverse pass before segment ", report.segment, ": ", report.note);
+    } else {
+      MCVO_LOG(kWarning, "run: reverse pass before segment ", report.segment, ": ", report.note);
+    }
+  }
+  for (ScaleLogEntry& entry : result.scale_log) out->scale_log.push_back(std::move(entry));
+}
+
+}  // namespace
+
+OdometryStage::OdometryStage(const Rig& rig, const PipelineOptions& options, int threads)
+    : rig_(rig),
+      options_(options),
+      threads_(threads),
+      estimator_(std::make_unique<Estimator>(rig, options.initializer, options.backend, threads)),
+      reverse_(MakeReversePass(rig, options, options.initializer, threads)) {}
+
+void OdometryStage::Consume(Estimator* estimator, ReversePass* reverse, const RigFrameObservations& frame,
+                            double frontend_seconds, OdometryOutput* out) {
+  const Clock::time_point start = Clock::now();
+  FrameEstimate est = estimator->AddFrame(frame);
+  const double backend_seconds = SecondsSince(start);
+  for (const PoseUpdate& update : est.poses) {
+    StampedPose pose;
+    pose.t_ns = update.t_ns;
+    pose.frame_index = update.frame_index;
+    pose.world_from_body = update.world_from_rig;
+    out->poses[update.frame_index] = pose;
+  }
+  if (reverse != nullptr) reverse->Add(frame, est);
+  for (KeyframeEstimate& kf : estimator->TakeFinishedKeyframes()) out->keyframes.push_back(std::move(kf));
+  for (const MapLandmark& lm : estimator->TakeFinishedLandmarks()) out->landmarks[lm.id] = lm.position_world;
+  for (ScaleLogEntry& entry : estimator->TakeScaleLog()) out->scale_log.push_back(std::move(entry));
+  out->segments = std::max(out->segments, est.segment + 1);
+  StageSeconds& t = out->totals;
+  t.frontend += frontend_seconds;
+  t.initializer += est.seconds_initializer;
+  t.pnp += est.seconds_pnp;
+  t.ba += est.seconds_ba;
+  t.marginalization += est.seconds_marginalization;
+  t.scale += est.seconds_scale;
+  t.backend += backend_seconds;
+  est.poses.clear();
+  out->records.push_back({std::move(est), frame.cross_camera.size(), frontend_seconds, backend_seconds});
+}
+
+void OdometryStage::FinishEstimator(Estimator* estimator, OdometryOutput* out) {
+  for (KeyframeEstimate& kf : estimator->Finish()) out->keyframes.push_back(std::move(kf));
+  for (const MapLandmark& lm : estimator->TakeFinishedLandmarks()) out->landmarks[lm.id] = lm.position_world;
+  for (ScaleLogEntry& entry : estimator->TakeScaleLog()) out->scale_log.push_back(std::move(entry));
+}
+
+void OdometryStage::Add(const RigFrameObservations& frame, double frontend_seconds) {
+  Consume(estimator_.get(), reverse_.get(), frame, frontend_seconds, &out_);
+  if (out_.poses.empty()) {
+    unposed_.push_back(frame);
+    unposed_frontend_seconds_.push_back(frontend_seconds);
+  } else if (!unposed_.empty()) {
+    unposed_.clear();
+    unposed_.shrink_to_fit();
+    unposed_frontend_seconds_.clear();
+  }
+}
+
+OdometryOutput OdometryStage::Finish() {
+  FinishEstimator(estimator_.get(), &out_);
+  const double sigma = estimator_->SmallestRejectedScaleSigma();
+  const double fallback = options_.initializer.max_relative_scale_sigma_fallback;
+  if (out_.poses.empty() && !unposed_.empty() && std::isfinite(sigma) && sigma <= fallback &&
+      sigma > options_.initializer.max_relative_scale_sigma) {
+    // Fallback: the same frames again with the relaxed bound; the first
+    // window that meets it (and every other gate) initialises, so the
+    // forward segment is as long as it can be and the back end's scale
+    // corrections, fused by their uncertainty, get every later turn.
+    MCVO_LOG(kWarning, "run: no frame posed with the initializer's scale bound of ",
+             FormatFixed(100.0 * options_.initializer.max_relative_scale_sigma, 2), " % (best window ",
+             FormatFixed(100.0 * sigma, 2), " %); running again with the fallback bound of ",
+             FormatFixed(100.0 * fallback, 2), " % (initializer.max_relative_scale_sigma_fallback)");
+    InitializerOptions relaxed = options_.initializer;
+    relaxed.max_relative_scale_sigma = fallback;
+    Estimator estimator(rig_, relaxed, options_.backend, threads_);
+    reverse_ = MakeReversePass(rig_, options_, relaxed, threads_);
+    OdometryOutput rerun;
+    for (size_t k = 0; k < unposed_.size(); ++k) {
+      Consume(&estimator, reverse_.get(), unposed_[k], unposed_frontend_seconds_[k], &rerun);
+    }
+    FinishEstimator(&estimator, &rerun);
+    // Both passes' back-end time counts; the frontend ran once.
+    rerun.totals.initializer += out_.totals.initializer;
+    rerun.totals.backend += out_.totals.backend;
+    for (ScaleLogEntry& entry : rerun.scale_log) {
+      if (entry.event != "init") continue;
+      entry.note += StrCat("; offline fallback: no window of the sequence met the scale bound of ",
+                           FormatFixed(100.0 * options_.initializer.max_relative_scale_sigma, 2), " %, this one met ",
+                           FormatFixed(100.0 * fallback, 2), " %");
+    }
+    out_ = std::move(rerun);
+    out_.fallback_sigma = fallback;
+  }
+  unposed_.clear();
+  if (reverse_) {
+    const Clock::time_point start = Clock::now();
+    ApplyReversePass(reverse_->Run(), &out_);
+    out_.reverse_seconds = SecondsSince(start);
+    reverse_.reset();
+  }
+  std::stable_sort(
+      out_.keyframes.begin(), out_.keyframes.end(),
+      [](const KeyframeEstimate& a, const KeyframeEstimate& b) { return a.frame_index < b.frame_index; });
+  std::stable_sort(out_.scale_log.begin(), out_.scale_log.end(),
+                   [](const ScaleLogEntry& a, const ScaleLogEntry& b) { return a.frame_index < b.frame_index; });
+  return std::move(out_);
+}
+
+std::string FrameStatsCsv(const Rig& rig, const OdometryOutput& odometry) {
+  std::string csv =
+      "frame,t_ns,state,segment,keyframe,has_pose,pose_source,pnp_inliers,landmarks,ba_iterations,"
+      "ba_initial_cost,ba_final_cost";
+  for (const Camera& camera : rig.cameras) csv += ",features_" + camera.name;
+  for (const Camera& camera : rig.cameras) csv += ",landmarks_" + camera.name;
+  csv += ",cross_camera,note\n";
+  for (const FrameRecord& record : odometry.records) {
+    const FrameEstimate& est = record.estimate;
+    auto reverse = odometry.reverse_posed.find(est.frame_index);
+    const bool has_pose = odometry.poses.count(est.frame_index) != 0;
+    const char* source = reverse != odometry.reverse_posed.end() ? "reverse" : has_pose ? "forward" : "none";
+    const int segment = reverse != odometry.reverse_posed.end() ? reverse->second : est.segment;
+    csv += StrCat(est.frame_index, ",", est.t_ns, ",", EnumToName(kEstimatorStateNames, est.state), ",", segment,
+                  ",", est.keyframe ? 1 : 0, ",", has_pose ? 1 : 0, ",", source, ",", est.pnp_inliers, ",",
+                  est.num_landmarks, ",", est.ba_iterations, ",", FormatDouble(est.ba_initial_cost), ",",
+                  FormatDouble(est.ba_final_cost));
+    for (int n : est.features_per_camera) csv += StrCat(",", n);
+    for (int n : est.landmarks_per_camera) csv += StrCat(",", n);
+    csv += StrCat(",", record.cross_camera, ",", CsvQuote(est.waiting_reason), "\n");
+  }
+  return csv;
+}
+
+std::string TimingCsv(const OdometryOutput& odometry) {
+  std::string csv =
+      "frame,t_ns,frontend_s,initializer_s,pnp_s,ba_s,marginalization_s,scale_correction_s,backend_s\n";
+  for (const FrameRecord& record : odometry.records) {
+    const FrameEstimate& est = record.estimate;
+    csv += StrCat(est.frame_index, ",", est.t_ns, ",", FormatFixed(record.frontend_seconds, 6), ",",
+                  FormatFixed(est.seconds_initializer, 6), ",", FormatFixed(est.seconds_pnp, 6), ",",
+                  FormatFixed(est.seconds_ba, 6), ",", FormatFixed(est.seconds_marginalization, 6), ",",
+                  FormatFixed(est.seconds_scale, 6), ",", FormatFixed(record.backend_seconds, 6), "\n");
+  }
+  return csv;
+}
+
+}  // namespace mcvo::pipeline_internal
