@@ -31,7 +31,13 @@ std::unique_ptr<ReversePass> MakeReversePass(const Rig& rig, const PipelineOptio
   if (!options.backend.reverse_pass) return nullptr;
   ReversePassOptions reverse_options;
   reverse_options.overlap_frames = options.backend.reverse_pass_overlap_frames;
-  return std::make_unique<ReversePass>(rig, init_options, options.backend, reverse_options, threads);
+  // The reverse run's own scale is replaced by the forward one when it is
+  // aligned (a similarity), so its initializer needs the scale only well
+  // enough to track: it may use the fallback bound.
+  InitializerOptions reverse_init = init_options;
+  reverse_init.max_relative_scale_sigma =
+      std::max(init_options.max_relative_scale_sigma, options.initializer.max_relative_scale_sigma_fallback);
+  return std::make_unique<ReversePass>(rig, reverse_init, options.backend, reverse_options, threads);
 }
 
 // Merges the reverse passes' poses, keyframes and landmarks (a landmark the
