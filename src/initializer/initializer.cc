@@ -429,6 +429,11 @@ struct Initializer::Impl {
       const size_t worst =
           static_cast<size_t>(std::max_element(relative.begin(), relative.end()) - relative.begin());
       if (!(relative[best] <= gate)) {
+        // The bound that would have let this window through the screen (for the offline fallback).
+        if (std::isfinite(relative[best])) {
+          smallest_rejected_sigma =
+              std::min(smallest_rejected_sigma, relative[best] * options.max_relative_scale_sigma / gate);
+        }
         reason =
             describe(std::isfinite(relative[best])
                          ? StrCat("scale poorly observable: best determined camera ", best,

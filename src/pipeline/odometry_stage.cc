@@ -63,6 +63,62 @@ void ApplyReversePass(ReversePassResult result, OdometryOutput* out) {
   for (ScaleLogEntry& entry : result.scale_log) out->scale_log.push_back(std::move(entry));
 }
 
+// Places each later segment where the one before it was heading: a segment
+// starts after a tracking loss, at the last good pose (estimator.h); once
+// the reverse pass has posed it back towards the loss, its first posed
+// frame a is moved to the constant-velocity prediction from the previous
+// segment's last two poses (b-1, b) over the a - b frames between, and
+// everything of the segment (poses, keyframes, landmarks) moves with it.
+// Logged as one "link" line per segment.
+void LinkSegments(OdometryOutput* out) {
+  std::map<int, int> segment_of;  // posed frame -> segment
+  for (const FrameRecord& record : out->records) {
+    const int index = record.estimate.frame_index;
+    if (out->poses.count(index) == 0) continue;
+    auto reverse = out->reverse_posed.find(index);
+    segment_of[index] = reverse != out->reverse_posed.end() ? reverse->second : record.estimate.segment;
+  }
+  std::map<int, Rigid3d> correction;  // segment -> world_new_from_world_old
+  std::map<int, std::vector<int>> frames_of;
+  for (const auto& [index, segment] : segment_of) frames_of[segment].push_back(index);
+  int previous = -1;
+  for (const auto& [segment, frames] : frames_of) {
+    correction[segment] = previous >= 0 ? correction[previous] : Rigid3d();
+    const std::vector<int>& before = previous >= 0 ? frames_of[previous] : std::vector<int>();
+    if (before.size() >= 2 && frames.front() > before.back()) {
+      const Rigid3d last = correction[previous] * out->poses.at(before.back()).world_from_body;
+      const Rigid3d second = correction[previous] * out->poses.at(before[before.size() - 2]).world_from_body;
+      const Rigid3d step = second.Inverse() * last;
+      const int gap = frames.front() - before.back();
+      Rigid3d predicted = last;
+      for (int k = 0; k < gap; ++k) predicted = predicted * step;
+      correction[segment] = predicted * out->poses.at(frames.front()).world_from_body.Inverse();
+      ScaleLogEntry entry;
+      entry.frame_index = frames.front();
+      entry.t_ns = out->poses.at(frames.front()).t_ns;
+      entry.segment = segment;
+      entry.event = "link";
+      entry.applied = true;
+      entry.note = StrCat("segment ", segment, " placed by constant velocity from frame ", before.back(),
+                          " of segment ", previous, " over ", gap, " frame(s) (no relocalisation)");
+      out->scale_log.push_back(std::move(entry));
+    }
+    previous = segment;
+  }
+  for (auto& [index, pose] : out->poses) pose.world_from_body = correction[segment_of[index]] * pose.world_from_body;
+  std::map<int64_t, int> landmark_segment;
+  for (KeyframeEstimate& kf : out->keyframes) {
+    const Rigid3d& c = correction[kf.segment];
+    kf.world_from_rig = c * kf.world_from_rig;
+    for (Eigen::Vector3d& p : kf.observation_points) p = c * p;
+    for (const MapObservation& ob : kf.observations) landmark_segment[ob.landmark_id] = kf.segment;
+  }
+  for (auto& [id, position] : out->landmarks) {
+    auto it = landmark_segment.find(id);
+    if (it != landmark_segment.end()) position = correction[it->second] * position;
+  }
+}
+
 }  // namespace
 
 OdometryStage::OdometryStage(const Rig& rig, const PipelineOptions& options, int threads)
@@ -161,6 +217,7 @@ OdometryOutput OdometryStage::Finish() {
     out_.reverse_seconds = SecondsSince(start);
     reverse_.reset();
   }
+  if (out_.segments > 1) LinkSegments(&out_);
   std::stable_sort(
       out_.keyframes.begin(), out_.keyframes.end(),
       [](const KeyframeEstimate& a, const KeyframeEstimate& b) { return a.frame_index < b.frame_index; });

@@ -349,8 +349,12 @@ std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetInde
   return inputs;
 }
 
-std::string RunPosingWarning(int frames, int posed, const std::vector<std::string>& unposed_reasons) {
+std::string RunPosingWarning(int frames, int posed, int cameras, const std::vector<std::string>& unposed_reasons) {
   if (frames <= 0 || 2 * posed >= frames) return {};
+  const std::string head =
+      StrCat(posed == 0 ? "no frame posed" : StrCat("only ", posed, " of ", frames, " frames posed"), " (",
+             FormatFixed(100.0 * posed / frames, 1), " %): ");
+  if (cameras == 1) return head + "one camera: the metric scale is not observable (no monocular mode yet)";
   // Each waiting reason in a category a user can act on; the most frequent wins.
   auto category = [](const std::string& reason) -> std::string {
     auto has = [&](const char* text) { return reason.find(text) != std::string::npos; };
@@ -360,6 +364,7 @@ std::string RunPosingWarning(int frames, int posed, const std::vector<std::strin
       return "the metric scale was never observable (the rig did not turn and no cameras overlap)";
     if (has("rig pose failed") || has("tracking lost")) return "tracking lost";
     if (has("correspondences")) return "too few tracked features";
+    if (has("too few cameras pass")) return "too few cameras track enough features with enough parallax";
     if (reason.empty() || has("window")) return "too few frames to initialise";
     return reason;
   };
@@ -373,8 +378,7 @@ std::string RunPosingWarning(int frames, int posed, const std::vector<std::strin
       top = text;
     }
   }
-  return StrCat(posed == 0 ? "no frame posed" : StrCat("only ", posed, " of ", frames, " frames posed"), " (",
-                FormatFixed(100.0 * posed / frames, 1), " %): ", top);
+  return head + top;
 }
 
 RunSummary RunPipeline(const RunRequest& request) {
@@ -558,7 +562,7 @@ RunSummary RunPipeline(const RunRequest& request) {
     for (const pipeline_internal::FrameRecord& record : odometry.records) {
       if (poses.count(record.estimate.frame_index) == 0) unposed_reasons.push_back(record.estimate.waiting_reason);
     }
-    summary.warning = RunPosingWarning(summary.frames, summary.posed_frames, unposed_reasons);
+    summary.warning = RunPosingWarning(summary.frames, summary.posed_frames, rig.NumCameras(), unposed_reasons);
   }
 
   // Outputs.

@@ -375,16 +375,17 @@ TEST(BatchRun, SummaryHoldsTheNumbersOfEachRun) {
   std::getline(csv, broken);
   EXPECT_FALSE(std::getline(csv, extra));
   EXPECT_EQ(header,
-            "name,status,note,frames,posed_frames,ate_rmse_m,ate_percent_of_path,rpe_translation_percent,"
-            "rpe_rotation_deg_per_100m,scale_error_percent,frames_per_second");
-  EXPECT_EQ(full.rfind("full,skipped,\"up to date\",20,", 0), 0u) << full;
+            "name,status,note,frames,posed_frames,segments,warning,ate_rmse_m,ate_percent_of_path,"
+            "rpe_translation_percent,rpe_rotation_deg_per_100m,scale_error_percent,frames_per_second");
+  EXPECT_EQ(full.rfind(StrCat("full,skipped,\"up to date\",20,", r.posed_frames, ",1,\"\","), 0), 0u) << full;
   EXPECT_NE(full.find(FormatDouble(r.ate_rmse_m)), std::string::npos) << full;
   EXPECT_EQ(broken.rfind("broken,failed,\"", 0), 0u) << broken;
   EXPECT_NE(broken.find("gone"), std::string::npos) << broken;
-  EXPECT_NE(broken.find(",,,,,,,,"), std::string::npos) << broken;  // no numbers
+  EXPECT_NE(broken.find(",,,,,,,,,,"), std::string::npos) << broken;  // no numbers
 
   const std::string md = ReadFileToString(options.out_dir / "summary.md");
-  EXPECT_NE(md.find("| full | skipped (up to date) | 20 | "), std::string::npos) << md;
+  EXPECT_NE(md.find(StrCat("| full | skipped (up to date) | 20 | ", r.posed_frames, " | 1 | ")), std::string::npos)
+      << md;
   EXPECT_NE(md.find("| broken | failed: "), std::string::npos) << md;
   EXPECT_NE(md.find("2 runs: 0 ok, 1 skipped (up to date), 1 failed"), std::string::npos) << md;
 

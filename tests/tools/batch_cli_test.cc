@@ -59,7 +59,7 @@ TEST(BatchCli, RunsResumesAndIsolatesFailures) {
   EXPECT_TRUE(fs::is_regular_file(out / "all" / "trajectory.tum"));
   EXPECT_FALSE(fs::exists(out / "missing"));
   const std::string csv = mcvo::ReadFileToString(out / "summary.csv");
-  EXPECT_EQ(csv.find("name,status,note,frames,posed_frames,ate_rmse_m"), 0u) << csv;
+  EXPECT_EQ(csv.find("name,status,note,frames,posed_frames,segments,warning,ate_rmse_m"), 0u) << csv;
   // Manifest order, whatever order the jobs finished in.
   const size_t a = csv.find("\nshort,ok,"), b = csv.find("\nmissing,failed,"), c = csv.find("\nall,ok,");
   EXPECT_LT(a, b) << csv;

@@ -166,9 +166,10 @@ class Initializer {
   const std::string& WaitingReason() const;
   // Empties the window (after tracking loss, to initialise again).
   void Reset();
-  // The smallest scale std (rig BA) of the windows rejected only because it
-  // exceeded max_relative_scale_sigma, since construction (Reset() keeps
-  // it); infinity when none was. Decides whether the offline fallback
+  // The smallest scale std of the windows rejected only because it exceeded
+  // max_relative_scale_sigma (the rig BA's; for a window the linear screen
+  // of step 4 stopped, the bound that would have let it through), since
+  // construction (Reset() keeps it); infinity when none was. Decides whether the offline fallback
   // (max_relative_scale_sigma_fallback) can help.
   double SmallestRejectedScaleSigma() const;
 

@@ -62,11 +62,12 @@ struct RunSummary {
   std::string warning;
 };
 
-// The warning for a run that posed `posed` of `frames` frames (empty when at
-// least half are posed), naming the most frequent reason the unposed frames
-// waited for: one camera (scale not observable), the rig never moved, never
-// turned without overlapping views, tracking lost, too few features.
-std::string RunPosingWarning(int frames, int posed, const std::vector<std::string>& unposed_reasons);
+// The warning for a run of a rig of `cameras` cameras that posed `posed` of
+// `frames` frames (empty when at least half are posed), naming the reason:
+// one camera (scale not observable), else the most frequent reason the
+// unposed frames waited for: the rig never moved, never turned without
+// overlapping views, tracking lost, too few features or cameras.
+std::string RunPosingWarning(int frames, int posed, int cameras, const std::vector<std::string>& unposed_reasons);
 
 // Runs the pipeline. Bad input throws InputError / UsageError naming the file
 // and field; nothing is left at out_dir then.
