@@ -45,7 +45,7 @@ int RunSynth(int argc, const char* const* argv) {
   args.AddDouble("exposure-time", &options.render.effects.exposure_time_s,
                  "shutter time for motion blur, seconds");
   args.AddString("blackout", &blackout, "CAM:FIRST:COUNT",
-                 "camera (name or index) renders black for COUNT frames from frame FIRST");
+                 "camera (name, index or 'all') renders black for COUNT frames from frame FIRST");
   args.AddInt("threads", &options.render.threads,
               "render threads (0: all cores); output is the same for any");
   args.AddFlag("force", &options.force, "replace a non-empty output folder");
@@ -74,8 +74,10 @@ int RunSynth(int argc, const char* const* argv) {
     options.render.effects.blackout_num_frames = static_cast<int>(*count);
     const Rig rig = options.preset.empty() ? ReadRig(rig_path) : synth::PresetRig(options.preset);
     const auto index = ParseInt64(parts[0]);
-    const int camera = index ? static_cast<int>(*index) : rig.FindCamera(parts[0]);
-    if (camera < 0 || camera >= rig.NumCameras()) {
+    const bool all = parts[0] == "all" && rig.FindCamera(parts[0]) < 0;
+    const int camera = all ? synth::RenderEffects::kBlackoutAllCameras
+                           : index ? static_cast<int>(*index) : rig.FindCamera(parts[0]);
+    if (!all && (camera < 0 || camera >= rig.NumCameras())) {
       throw UsageError("--blackout: no camera '" + std::string(parts[0]) + "' in the rig");
     }
     options.render.effects.blackout_camera = camera;

@@ -29,8 +29,8 @@ void RenderEffects::Check() const {
   if (!std::isfinite(exposure_time_s) || exposure_time_s <= 0.0 || exposure_time_s > 1.0) {
     Bad("exposure_time_s", StrCat("must be in (0, 1] seconds, got ", exposure_time_s));
   }
-  if (blackout_camera < -1)
-    Bad("blackout_camera", StrCat("must be -1 (none) or a camera index, got ", blackout_camera));
+  if (blackout_camera < kBlackoutAllCameras)
+    Bad("blackout_camera", StrCat("must be -1 (none), -2 (all) or a camera index, got ", blackout_camera));
   if (blackout_first_frame < 0)
     Bad("blackout_first_frame", StrCat("must be >= 0, got ", blackout_first_frame));
   if (blackout_num_frames < 0) Bad("blackout_num_frames", StrCat("must be >= 0, got ", blackout_num_frames));

@@ -85,7 +85,9 @@ std::string MetaJson(const SynthOptions& options, const std::string& scene_name,
       {"motion_blur_samples", e.motion_blur_samples},
       {"exposure_time_s", e.exposure_time_s},
       {"moving_objects", scene.scene.moving_objects().size()},
-      {"blackout_camera", e.blackout_camera < 0 ? std::string() : rig.cameras[e.blackout_camera].name},
+      {"blackout_camera", e.blackout_camera == RenderEffects::kBlackoutAllCameras ? std::string("all")
+                          : e.blackout_camera < 0                                   ? std::string()
+                                                                                    : rig.cameras[e.blackout_camera].name},
       {"blackout_first_frame", e.blackout_first_frame},
       {"blackout_num_frames", e.blackout_num_frames}};
   nlohmann::ordered_json cameras = nlohmann::ordered_json::array();

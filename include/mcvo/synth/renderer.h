@@ -80,14 +80,17 @@ struct RenderEffects {
   bool vignetting = false;
   int motion_blur_samples = 0;    // > 1: average over this many instants within the exposure
   double exposure_time_s = 0.01;  // shutter time used by motion blur
-  // Cameras that go black: camera `blackout_camera` renders all-black images
-  // for frames [blackout_first_frame, blackout_first_frame + blackout_num_frames).
+  // Cameras that go black: camera `blackout_camera` (kBlackoutAllCameras:
+  // every camera) renders all-black images for frames
+  // [blackout_first_frame, blackout_first_frame + blackout_num_frames).
+  static constexpr int kBlackoutAllCameras = -2;
   int blackout_camera = -1;
   int blackout_first_frame = 0;
   int blackout_num_frames = 0;
 
   bool IsBlackout(int camera_index, int frame) const {
-    return camera_index == blackout_camera && frame >= blackout_first_frame &&
+    return (camera_index == blackout_camera || blackout_camera == kBlackoutAllCameras) &&
+           frame >= blackout_first_frame &&
            frame - blackout_first_frame < blackout_num_frames;
   }
 
