@@ -176,6 +176,18 @@ struct ReversePass::Impl {
         for (Eigen::Vector3d& p : out.observation_points) p = sim * p;
         result->keyframes.push_back(std::move(out));
       }
+    }
+    if (report.applied && report.frames_posed == 0) {
+      // Aligned, but it lost track before reaching any frame without a pose
+      // (e.g. images without texture right before the segment): nothing to add.
+      report.applied = false;
+      report.note = StrCat("the reverse pass posed none of the ", first_pose - previous_posed - 1,
+                           " frames before frame ", first_pose, " (aligned: Sim3 scale ",
+                           FormatFixed(report.forward_from_reverse.scale, 4), ", rms ",
+                           FormatFixed(report.align_rms_m, 3), " m over ", report.overlap_poses, " frames)");
+      report.forward_from_reverse = Sim3d();
+    } else if (report.applied) {
+      const Sim3d& sim = report.forward_from_reverse;
       for (const MapLandmark& lm : run.landmarks) result->landmarks.push_back({lm.id, sim * lm.position_world});
       report.note = StrCat("frames ", report.first_frame_posed, "-", first_pose - 1, " (", report.frames_posed,
                            " of ", first_pose - previous_posed - 1,
