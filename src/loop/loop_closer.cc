@@ -21,6 +21,30 @@ namespace {
 constexpr double kFocalPx = 460.0;  // thresholds "at focal 460", as the back end's
 constexpr double kRadToDeg = 180.0 / M_PI;
 
+// ORB's orientation of a keypoint (Rublee et al.: the direction from the
+// centre to the intensity centroid of the disc of `radius` around it), in
+// degrees [0, 360), on the level-0 image; 0 where the disc leaves the image.
+// cv::ORB::compute keeps a given keypoint's angle (-1 when unset: an
+// upright descriptor), which does not match the oriented descriptors of its
+// own detections.
+float IntensityCentroidAngle(const cv::Mat& image, float x, float y, int radius) {
+  const int cx = static_cast<int>(std::lround(x)), cy = static_cast<int>(std::lround(y));
+  if (cx - radius < 0 || cy - radius < 0 || cx + radius >= image.cols || cy + radius >= image.rows) return 0.0f;
+  double m01 = 0.0, m10 = 0.0;
+  for (int v = -radius; v <= radius; ++v) {
+    const uint8_t* row = image.ptr<uint8_t>(cy + v);
+    const int half = static_cast<int>(std::sqrt(static_cast<double>(radius * radius - v * v)));
+    for (int u = -half; u <= half; ++u) {
+      const double value = row[cx + u];
+      m10 += u * value;
+      m01 += v * value;
+    }
+  }
+  double angle = std::atan2(m01, m10) * 180.0 / M_PI;
+  if (angle < 0.0) angle += 360.0;
+  return static_cast<float>(angle);
+}
+
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
@@ -42,6 +66,7 @@ void LoopClosureOptions::Check() const {
   CheckInRange("/loop/min_camera_fraction", min_camera_fraction, 0.0, 1.0);
   CheckAtLeast("/loop/consistency_window", consistency_window, 0);
   CheckAtLeast("/loop/candidate_neighbours", candidate_neighbours, 0);
+  CheckInRange("/loop/landmark_levels", landmark_levels, 1, 8);
   CheckAtLeast("/loop/max_correction_fraction", max_correction_fraction, 0.0);
   CheckAtLeast("/loop/max_correction_floor_m", max_correction_floor_m, 0.0);
 }
@@ -121,13 +146,24 @@ struct LoopCloser::Impl {
     for (size_t k = 0; k < keyframe.points.size(); ++k) {
       const LoopKeyframe::Point& p = keyframe.points[k];
       if (p.camera != camera) continue;
-      cv::KeyPoint kp(static_cast<float>(p.pixel.x()), static_cast<float>(p.pixel.y()), 31.0f);
-      kp.class_id = static_cast<int>(k);
-      points.push_back(kp);
+      // One descriptor per pyramid level asked for (ORB's levels, 1.2 apart):
+      // a place seen again from farther or nearer matches at another level.
+      for (int level = 0; level < options.landmark_levels; ++level) {
+        cv::KeyPoint kp(static_cast<float>(p.pixel.x()), static_cast<float>(p.pixel.y()),
+                        static_cast<float>(31.0 * std::pow(1.2, level)));
+        kp.octave = level;
+        kp.class_id = static_cast<int>(k);
+        if (options.landmark_orientation) {
+          kp.angle = IntensityCentroidAngle(image, kp.pt.x, kp.pt.y,
+                                            static_cast<int>(std::lround(15.0 * std::pow(1.2, level))));
+        }
+        points.push_back(kp);
+      }
     }
     if (!points.empty()) {
-      // Orientation and descriptor at the given pixels (level 0); ORB drops
-      // keypoints too close to the border: class_id says which remain.
+      // Descriptors at the given pixels on their levels; ORB drops keypoints
+      // too close to the border and groups them by level: class_id says
+      // which remain, in its order.
       orb->compute(image, points, out.point_descriptors);
       for (const cv::KeyPoint& kp : points) out.point_index.push_back(kp.class_id);
     }
@@ -214,8 +250,12 @@ struct LoopCloser::Impl {
   }
 
   // Geometric verification of one candidate.
+  // relocalise: the query is not part of the sequence of the keyframes
+  // (Relocalise): every neighbour of the candidate may lend its landmarks
+  // and the drift plausibility test does not apply (the odometry between
+  // the two is unknown).
   LoopAttempt Verify(const Features& query, int query_index, const LoopKeyframe& keyframe, int candidate,
-                     double score) const {
+                     double score, bool relocalise = false) const {
     LoopAttempt attempt;
     attempt.query = query_index;
     attempt.candidate = candidate;
@@ -228,18 +268,25 @@ struct LoopCloser::Impl {
     for (int d = 1; d <= options.candidate_neighbours; ++d) {
       if (candidate - d >= 0) keyframes.push_back(candidate - d);
       if (candidate + d < static_cast<int>(entries.size()) &&
-          candidate + d < query_index - options.exclude_recent_keyframes) {
+          (relocalise || candidate + d < query_index - options.exclude_recent_keyframes)) {
         keyframes.push_back(candidate + d);
       }
     }
-    std::map<int64_t, bool> seen;
+    // A landmark's rows (one per descriptor level) come from the first of
+    // these keyframes that has it.
+    std::map<int64_t, int> first_keyframe;
     std::vector<Eigen::Vector3d> points;
+    std::vector<int64_t> row_landmark;
+    std::vector<size_t> landmark_row;  // per row: the landmark's first row (its key below)
+    std::map<int64_t, size_t> first_row;
     std::vector<cv::Mat> rows;
     for (int kf : keyframes) {
       const Entry& e = entries[static_cast<size_t>(kf)];
       for (size_t k = 0; k < e.landmark_id.size(); ++k) {
-        if (!seen.emplace(e.landmark_id[k], true).second) continue;
+        if (first_keyframe.emplace(e.landmark_id[k], kf).first->second != kf) continue;
         points.push_back(e.landmark_point[k]);
+        row_landmark.push_back(e.landmark_id[k]);
+        landmark_row.push_back(first_row.emplace(e.landmark_id[k], rows.size()).first->second);
         rows.push_back(e.landmark_descriptors.row(static_cast<int>(k)));
       }
     }
@@ -253,14 +300,22 @@ struct LoopCloser::Impl {
       cv::vconcat(rows, train);
       cv::BFMatcher matcher(cv::NORM_HAMMING);
       std::vector<std::vector<cv::DMatch>> knn;
-      matcher.knnMatch(query.descriptors, train, knn, 2);
+      // The ratio test compares with the nearest row of another landmark
+      // (a landmark has landmark_levels rows).
+      matcher.knnMatch(query.descriptors, train, knn, options.landmark_levels + 1);
       for (const std::vector<cv::DMatch>& m : knn) {
         if (m.size() < 2) continue;
         const int q = m[0].queryIdx;
         if (query.bearing[static_cast<size_t>(q)].squaredNorm() == 0.0) continue;
-        const int best = static_cast<int>(m[0].distance), second = static_cast<int>(m[1].distance);
+        size_t other = 1;
+        while (other < m.size() && row_landmark[static_cast<size_t>(m[other].trainIdx)] ==
+                                       row_landmark[static_cast<size_t>(m[0].trainIdx)]) {
+          ++other;
+        }
+        if (other == m.size()) continue;
+        const int best = static_cast<int>(m[0].distance), second = static_cast<int>(m[other].distance);
         if (best > options.max_match_distance || best >= options.match_ratio * second) continue;
-        const size_t landmark = static_cast<size_t>(m[0].trainIdx);
+        const size_t landmark = landmark_row[static_cast<size_t>(m[0].trainIdx)];
         auto it = best_for_landmark.find(landmark);
         if (it == best_for_landmark.end() || best < it->second.first) best_for_landmark[landmark] = {best, q};
       }
@@ -303,6 +358,10 @@ struct LoopCloser::Impl {
     }
     const Rigid3d& world_from_candidate = entries[static_cast<size_t>(candidate)].world_from_rig;
     attempt.candidate_from_query = world_from_candidate.Inverse() * pnp.world_from_rig;
+    if (relocalise) {
+      attempt.verified = true;
+      return attempt;
+    }
     const Rigid3d odometry = world_from_candidate.Inverse() * keyframe.world_from_rig;
     const Rigid3d delta = odometry.Inverse() * attempt.candidate_from_query;
     attempt.correction_m = delta.translation.norm();
@@ -335,9 +394,7 @@ struct LoopCloser::Impl {
   }
 
   std::vector<LoopAttempt> AddKeyframe(const LoopKeyframe& keyframe) {
-    MCVO_CHECK_MSG(static_cast<int>(keyframe.images.size()) == rig.NumCameras(), "keyframe ",
-                   keyframe.frame_index, " has ", keyframe.images.size(), " images, the rig ",
-                   rig.NumCameras());
+    CheckImages(keyframe);
     const int index = static_cast<int>(entries.size());
     auto start = std::chrono::steady_clock::now();
     const Features features = Extract(keyframe);
@@ -386,7 +443,12 @@ struct LoopCloser::Impl {
       if (a.verified) verified.emplace_back(a.query, a.candidate);
     }
     timing.verification_s += Seconds(start);
+    Insert(keyframe, features, bow);
+    return attempts;
+  }
 
+  void Insert(const LoopKeyframe& keyframe, const Features& features, const BowVector& bow) {
+    const int index = static_cast<int>(entries.size());
     Entry entry;
     entry.frame_index = keyframe.frame_index;
     entry.world_from_rig = keyframe.world_from_rig;
@@ -399,6 +461,56 @@ struct LoopCloser::Impl {
     entry.landmark_descriptors = features.landmark_descriptors;
     entries.push_back(std::move(entry));
     for (const auto& [word, weight] : bow) inverted[word].emplace_back(index, weight);
+  }
+
+  void CheckImages(const LoopKeyframe& keyframe) const {
+    MCVO_CHECK_MSG(static_cast<int>(keyframe.images.size()) == rig.NumCameras(), "keyframe ",
+                   keyframe.frame_index, " has ", keyframe.images.size(), " images, the rig ",
+                   rig.NumCameras());
+  }
+
+  void AddMapKeyframe(const LoopKeyframe& keyframe) {
+    CheckImages(keyframe);
+    const auto start = std::chrono::steady_clock::now();
+    const Features features = Extract(keyframe);
+    const BowVector bow = vocabulary.Transform(features.descriptors.rowRange(0, features.num_detections));
+    timing.features_s += Seconds(start);
+    Insert(keyframe, features, bow);
+    previous_bow = bow;
+  }
+
+  std::vector<LoopAttempt> Relocalise(const LoopKeyframe& keyframe, int max_candidates) {
+    CheckImages(keyframe);
+    auto start = std::chrono::steady_clock::now();
+    const Features features = Extract(keyframe);
+    const BowVector bow = vocabulary.Transform(features.descriptors.rowRange(0, features.num_detections));
+    timing.features_s += Seconds(start);
+    start = std::chrono::steady_clock::now();
+    // Every keyframe of the map by BoW score (no recency exclusion, no
+    // score floor: the map is the place the rig just was), best first.
+    std::vector<double> sums(entries.size(), 0.0);
+    for (const auto& [word, q] : bow) {
+      auto it = inverted.find(word);
+      if (it == inverted.end()) continue;
+      for (const auto& [kf, b] : it->second) sums[static_cast<size_t>(kf)] += q + b - std::abs(q - b);
+    }
+    std::vector<std::pair<int, double>> candidates;
+    for (size_t kf = 0; kf < sums.size(); ++kf) {
+      if (sums[kf] > 0.0) candidates.emplace_back(static_cast<int>(kf), 0.5 * sums[kf]);
+    }
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [](const auto& a, const auto& b) { return a.second > b.second; });
+    timing.query_s += Seconds(start);
+    start = std::chrono::steady_clock::now();
+    std::vector<LoopAttempt> attempts;
+    const int query_index = static_cast<int>(entries.size());
+    for (size_t k = 0; k < candidates.size() && static_cast<int>(k) < max_candidates; ++k) {
+      LoopAttempt attempt =
+          Verify(features, query_index, keyframe, candidates[k].first, candidates[k].second, true);
+      attempt.accepted = attempt.verified;
+      attempts.push_back(std::move(attempt));
+    }
+    timing.verification_s += Seconds(start);
     return attempts;
   }
 };
@@ -410,6 +522,12 @@ LoopCloser::~LoopCloser() = default;
 
 std::vector<LoopAttempt> LoopCloser::AddKeyframe(const LoopKeyframe& keyframe) {
   return impl_->AddKeyframe(keyframe);
+}
+
+void LoopCloser::AddMapKeyframe(const LoopKeyframe& keyframe) { impl_->AddMapKeyframe(keyframe); }
+
+std::vector<LoopAttempt> LoopCloser::Relocalise(const LoopKeyframe& query, int max_candidates) {
+  return impl_->Relocalise(query, max_candidates);
 }
 
 int LoopCloser::num_keyframes() const { return static_cast<int>(impl_->entries.size()); }

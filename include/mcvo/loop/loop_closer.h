@@ -77,6 +77,15 @@ struct LoopClosureOptions {
   double max_correction_fraction = 0.1;
   double max_correction_floor_m = 2.0;
   int candidate_neighbours = 2;  // landmarks of this many keyframes on each side of the candidate
+  // ORB descriptors per landmark pixel, on this many pyramid levels (1.2
+  // apart): more match a place seen from farther or nearer. Loop closure
+  // uses its config value; relocalisation at least 3.
+  int landmark_levels = 1;
+  // Oriented descriptors at the landmark pixels (ORB's intensity-centroid
+  // angle), like those of the detections they are matched with; false:
+  // upright. Relocalisation sets it; loop closure keeps its config value
+  // (false by default until measured on the suite).
+  bool landmark_orientation = false;
   // Throws InputError naming the field ("/loop/...").
   void Check() const;
 };
@@ -133,6 +142,17 @@ class LoopCloser {
   // Adds the next keyframe (in time order); returns the candidates it
   // verified (accepted or not), best score first. Timing adds up in timing().
   std::vector<LoopAttempt> AddKeyframe(const LoopKeyframe& keyframe);
+
+  // Relocalisation against a map (pipeline/relocalise_segments.h): adds a
+  // keyframe to the database without querying it.
+  void AddMapKeyframe(const LoopKeyframe& keyframe);
+  // The query's rig pose in the map of the keyframes added so far: the best
+  // `max_candidates` of them by BoW score (none excluded as recent), each
+  // verified as in 4. but without the drift plausibility test (the
+  // odometry between query and map is unknown: tracking was lost) and
+  // without the consistency test; accepted == verified. The query is not
+  // added.
+  std::vector<LoopAttempt> Relocalise(const LoopKeyframe& query, int max_candidates);
 
   int num_keyframes() const;
   const LoopTiming& timing() const;
