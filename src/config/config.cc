@@ -164,12 +164,17 @@ template <typename V>
 void Visit(V& v, LoopOptions* o) {
   v.Field("enabled", &o->enabled);
   v.Field("vocabulary_path", &o->vocabulary_path);
+  v.Field("relocalise", &o->relocalise);
+  v.Field("relocalise_map_keyframes", &o->relocalise_map_keyframes);
+  v.Field("relocalise_query_keyframes", &o->relocalise_query_keyframes);
   LoopClosureOptions& c = o->closure;
   v.Field("features_per_camera", &c.features_per_camera);
   v.Field("exclude_recent_keyframes", &c.exclude_recent_keyframes);
   v.Field("min_score", &c.min_score);
   v.Field("min_normalized_score", &c.min_normalized_score);
   v.Field("max_candidates", &c.max_candidates);
+  v.Field("landmark_levels", &c.landmark_levels);
+  v.Field("landmark_orientation", &c.landmark_orientation);
   v.Field("match_ratio", &c.match_ratio);
   v.Field("max_match_distance", &c.max_match_distance);
   v.Field("pnp_threshold_px", &c.pnp_threshold_px);

@@ -22,6 +22,8 @@ void DatasetSelectionOptions::Check() const {
 }
 
 void LoopOptions::Check() const {
+  CheckAtLeast("/loop/relocalise_map_keyframes", relocalise_map_keyframes, 1);
+  CheckAtLeast("/loop/relocalise_query_keyframes", relocalise_query_keyframes, 1);
   closure.Check();
   pose_graph.Check();
 }

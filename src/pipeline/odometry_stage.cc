@@ -71,13 +71,7 @@ void ApplyReversePass(ReversePassResult result, OdometryOutput* out) {
 // everything of the segment (poses, keyframes, landmarks) moves with it.
 // Logged as one "link" line per segment.
 void LinkSegments(OdometryOutput* out) {
-  std::map<int, int> segment_of;  // posed frame -> segment
-  for (const FrameRecord& record : out->records) {
-    const int index = record.estimate.frame_index;
-    if (out->poses.count(index) == 0) continue;
-    auto reverse = out->reverse_posed.find(index);
-    segment_of[index] = reverse != out->reverse_posed.end() ? reverse->second : record.estimate.segment;
-  }
+  const std::map<int, int> segment_of = SegmentOfPosedFrames(*out);
   std::map<int, Rigid3d> correction;  // segment -> world_new_from_world_old
   std::map<int, std::vector<int>> frames_of;
   for (const auto& [index, segment] : segment_of) frames_of[segment].push_back(index);
@@ -105,21 +99,47 @@ void LinkSegments(OdometryOutput* out) {
     }
     previous = segment;
   }
-  for (auto& [index, pose] : out->poses) pose.world_from_body = correction[segment_of[index]] * pose.world_from_body;
-  std::map<int64_t, int> landmark_segment;
-  for (KeyframeEstimate& kf : out->keyframes) {
-    const Rigid3d& c = correction[kf.segment];
-    kf.world_from_rig = c * kf.world_from_rig;
-    for (Eigen::Vector3d& p : kf.observation_points) p = c * p;
-    for (const MapObservation& ob : kf.observations) landmark_segment[ob.landmark_id] = kf.segment;
-  }
-  for (auto& [id, position] : out->landmarks) {
-    auto it = landmark_segment.find(id);
-    if (it != landmark_segment.end()) position = correction[it->second] * position;
-  }
+  MoveSegments(correction, out);
 }
 
 }  // namespace
+
+std::map<int, int> SegmentOfPosedFrames(const OdometryOutput& out) {
+  std::map<int, int> segment_of;
+  for (const FrameRecord& record : out.records) {
+    const int index = record.estimate.frame_index;
+    if (out.poses.count(index) == 0) continue;
+    auto reverse = out.reverse_posed.find(index);
+    segment_of[index] = reverse != out.reverse_posed.end() ? reverse->second : record.estimate.segment;
+  }
+  return segment_of;
+}
+
+void MoveSegments(const std::map<int, Rigid3d>& correction, OdometryOutput* out) {
+  const std::map<int, int> segment_of = SegmentOfPosedFrames(*out);
+  auto find = [&](int segment) -> const Rigid3d* {
+    auto it = correction.find(segment);
+    return it == correction.end() ? nullptr : &it->second;
+  };
+  for (auto& [index, pose] : out->poses) {
+    auto segment = segment_of.find(index);
+    const Rigid3d* c = segment == segment_of.end() ? nullptr : find(segment->second);
+    if (c != nullptr) pose.world_from_body = *c * pose.world_from_body;
+  }
+  std::map<int64_t, int> landmark_segment;
+  for (KeyframeEstimate& kf : out->keyframes) {
+    for (const MapObservation& ob : kf.observations) landmark_segment[ob.landmark_id] = kf.segment;
+    const Rigid3d* c = find(kf.segment);
+    if (c == nullptr) continue;
+    kf.world_from_rig = *c * kf.world_from_rig;
+    for (Eigen::Vector3d& p : kf.observation_points) p = *c * p;
+  }
+  for (auto& [id, position] : out->landmarks) {
+    auto it = landmark_segment.find(id);
+    const Rigid3d* c = it == landmark_segment.end() ? nullptr : find(it->second);
+    if (c != nullptr) position = *c * position;
+  }
+}
 
 OdometryStage::OdometryStage(const Rig& rig, const PipelineOptions& options, int threads)
     : rig_(rig),

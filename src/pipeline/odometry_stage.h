@@ -75,6 +75,13 @@ class OdometryStage {
   std::vector<double> unposed_frontend_seconds_;
 };
 
+// Posed frame -> its segment (the reverse pass's segment for the frames it posed).
+std::map<int, int> SegmentOfPosedFrames(const OdometryOutput& out);
+// Moves every pose, keyframe (with its observation points) and landmark of
+// each segment in `correction` by it (world_new_from_world_old); a
+// landmark belongs to the segment of the last keyframe that observed it.
+void MoveSegments(const std::map<int, Rigid3d>& correction, OdometryOutput* out);
+
 std::string FrameStatsCsv(const Rig& rig, const OdometryOutput& odometry);
 std::string TimingCsv(const OdometryOutput& odometry);
 

@@ -37,6 +37,7 @@
 #include "mcvo/util/sha256.h"
 #include "mcvo/util/strings.h"
 #include "odometry_stage.h"
+#include "relocalise_segments.h"
 
 namespace mcvo {
 namespace {
@@ -231,39 +232,7 @@ LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEsti
   const Rig& rig = index.rig;
   LoopCloser closer(rig, index.masks, vocabulary, options.closure, threads);
   for (const KeyframeEstimate& kf : keyframes) {
-    LoopKeyframe lk;
-    lk.frame_index = kf.frame_index;
-    lk.t_ns = kf.t_ns;
-    lk.world_from_rig = kf.world_from_rig;
-    const Clock::time_point start = Clock::now();
-    lk.images.resize(static_cast<size_t>(rig.NumCameras()));
-    if (kf.frame_index >= 0 && kf.frame_index < static_cast<int>(index.frames.size())) {
-      // Decoded in parallel over cameras, each into its own slot.
-      const std::vector<std::filesystem::path>& paths =
-          index.frames[static_cast<size_t>(kf.frame_index)].images;
-      const int n = static_cast<int>(std::min(paths.size(), lk.images.size()));
-      const int workers = std::max(1, std::min(threads, n));
-      std::vector<std::thread> readers;
-      readers.reserve(static_cast<size_t>(workers));
-      for (int w = 0; w < workers; ++w) {
-        readers.emplace_back([&, w] {
-          for (int c = w; c < n; c += workers) {
-            if (!paths[c].empty()) lk.images[c] = cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
-          }
-        });
-      }
-      for (std::thread& reader : readers) reader.join();
-      for (int c = 0; c < n; ++c) {
-        if (!paths[c].empty() && lk.images[c].empty()) {
-          MCVO_THROW_INPUT(paths[c].string(), ": cannot read the image (loop closure)");
-        }
-      }
-    }
-    out.image_seconds += SecondsSince(start);
-    for (size_t k = 0; k < kf.observations.size() && k < kf.observation_points.size(); ++k) {
-      const MapObservation& ob = kf.observations[k];
-      lk.points.push_back({ob.camera, ob.landmark_id, ob.pixel, kf.observation_points[k]});
-    }
+    const LoopKeyframe lk = pipeline_internal::ToLoopKeyframe(index, kf, threads, &out.image_seconds);
     for (LoopAttempt& attempt : closer.AddKeyframe(lk)) {
       out.verified += attempt.verified ? 1 : 0;
       out.accepted += attempt.accepted ? 1 : 0;
@@ -495,6 +464,11 @@ RunSummary RunPipeline(const RunRequest& request) {
   }
   progress.Finish();
   pipeline_internal::OdometryOutput odometry = odometry_stage.Finish();
+  // After a tracking loss: the new segment located in the old one's map.
+  pipeline_internal::RelocalisationSummary relocalisation;
+  if (vocabulary) {
+    relocalisation = pipeline_internal::RelocaliseSegments(index, *vocabulary, options.loop, threads, &odometry);
+  }
   std::map<int, StampedPose>& poses = odometry.poses;
   std::vector<KeyframeEstimate>& keyframes = odometry.keyframes;
   std::map<int64_t, Eigen::Vector3d>& landmarks = odometry.landmarks;
@@ -557,6 +531,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   summary.posed_frames = static_cast<int>(poses.size());
   summary.keyframes = static_cast<int>(keyframes.size());
   summary.segments = odometry.segments;
+  summary.segments_relocalised = relocalisation.applied;
   {
     std::vector<std::string> unposed_reasons;
     for (const pipeline_internal::FrameRecord& record : odometry.records) {
@@ -730,6 +705,8 @@ RunSummary RunPipeline(const RunRequest& request) {
                            {"posed frames", StrCat(summary.posed_frames)},
                            {"keyframes", StrCat(summary.keyframes)},
                            {"segments", StrCat(summary.segments)},
+                           {"segments relocalised after a loss",
+                            StrCat(summary.segments_relocalised, " of ", summary.segments - 1)},
                            {"posed by the reverse pass (scale applied back)", StrCat(reverse_posed.size())}};
     if (!summary.warning.empty()) report.summary_rows.push_back({"warning", summary.warning});
     WriteReports(dir, report);
@@ -778,6 +755,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   result["posed_frames"] = summary.posed_frames;
   result["keyframes"] = summary.keyframes;
   result["segments"] = summary.segments;
+  result["segments_relocalised"] = summary.segments_relocalised;
   result["frames_posed_by_reverse_pass"] = reverse_posed.size();
   if (odometry.fallback_sigma > 0.0) result["initializer_fallback_sigma"] = odometry.fallback_sigma;
   if (!summary.warning.empty()) result["warning"] = summary.warning;

@@ -46,6 +46,15 @@ struct DatasetSelectionOptions {
 struct LoopOptions {
   bool enabled = true;
   std::string vocabulary_path;  // empty: the built-in vocabulary (DefaultVocabularyPath())
+  // Relocalisation after a tracking loss (pipeline/relocalise_segments.h;
+  // needs `enabled`, it uses the same vocabulary, features and rig PnP):
+  // each later segment's first `relocalise_query_keyframes` keyframes are
+  // located in the map of the previous segment's last
+  // `relocalise_map_keyframes` keyframes; otherwise the constant-velocity
+  // link stays.
+  bool relocalise = true;
+  int relocalise_map_keyframes = 10;
+  int relocalise_query_keyframes = 5;
   LoopClosureOptions closure;   // keys directly under /loop
   PoseGraphOptions pose_graph;  // /loop/pose_graph
 

@@ -48,6 +48,9 @@ struct RunSummary {
   int posed_frames = 0;
   int keyframes = 0;
   int segments = 1;
+  // Segments after the first located in the previous one's map
+  // (loop.relocalise); the others are linked by constant velocity.
+  int segments_relocalised = 0;
   double seconds = 0.0;
   double frames_per_second = 0.0;
   bool evaluated = false;

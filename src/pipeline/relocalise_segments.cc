@@ -1,0 +1,204 @@
+#include "relocalise_segments.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <thread>
+#include <utility>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "mcvo/util/error.h"
+#include "mcvo/util/logging.h"
+#include "mcvo/util/strings.h"
+
+namespace mcvo::pipeline_internal {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+// Descriptor levels of the map's landmarks (loop/landmark_levels, at least):
+// the rig moved on while tracking was lost, so the query sees the map's
+// places nearer, up to 1.2^(3-1) = 1.44 times larger.
+constexpr int kRelocaliseLevels = 3;
+
+// The best verified relocalisation of one segment.
+struct Located {
+  bool ok = false;
+  int query_frame = -1;
+  int map_frame = -1;
+  int inliers = 0;
+  int cameras = 0;
+  int verified_queries = 0;
+  std::string best_failure;  // the unverified attempt with the most matches: why
+  int best_failure_matches = -1;
+  Rigid3d world_prev_from_query;  // the query keyframe's rig pose in the previous segment's world
+  Rigid3d world_cur_from_query;   // and in its own (linked) world
+};
+
+// Keyframe indices (into odometry.keyframes, frame order) per segment.
+std::map<int, std::vector<size_t>> KeyframesBySegment(const std::vector<KeyframeEstimate>& keyframes) {
+  std::vector<size_t> order(keyframes.size());
+  for (size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return keyframes[a].frame_index < keyframes[b].frame_index; });
+  std::map<int, std::vector<size_t>> out;
+  for (size_t k : order) out[keyframes[k].segment].push_back(k);
+  return out;
+}
+
+Located Locate(const DatasetIndex& index, const Vocabulary& vocabulary, const LoopOptions& options, int threads,
+               const std::vector<KeyframeEstimate>& keyframes, const std::vector<size_t>& map,
+               const std::vector<size_t>& queries) {
+  LoopClosureOptions closure = options.closure;
+  closure.landmark_levels = std::max(closure.landmark_levels, kRelocaliseLevels);
+  closure.landmark_orientation = true;
+  LoopCloser closer(index.rig, index.masks, vocabulary, closure, threads);
+  for (size_t k : map) closer.AddMapKeyframe(ToLoopKeyframe(index, keyframes[k], threads));
+  Located best;
+  for (size_t q : queries) {
+    const KeyframeEstimate& query = keyframes[q];
+    for (const LoopAttempt& attempt :
+         closer.Relocalise(ToLoopKeyframe(index, query, threads), options.closure.max_candidates)) {
+      if (!attempt.verified) {
+        if (attempt.matches > best.best_failure_matches) {
+          best.best_failure_matches = attempt.matches;
+          best.best_failure = StrCat("frame ", query.frame_index, " against ", attempt.candidate_frame, ": ",
+                                     attempt.matches, " matches, ", attempt.inliers, " inliers, ", attempt.reason);
+        }
+        continue;
+      }
+      ++best.verified_queries;
+      if (best.ok && attempt.inliers <= best.inliers) continue;
+      const KeyframeEstimate& candidate = keyframes[map[static_cast<size_t>(attempt.candidate)]];
+      best.ok = true;
+      best.query_frame = query.frame_index;
+      best.map_frame = candidate.frame_index;
+      best.inliers = attempt.inliers;
+      best.cameras = attempt.cameras_with_inliers;
+      best.world_prev_from_query = candidate.world_from_rig * attempt.candidate_from_query;
+      best.world_cur_from_query = query.world_from_rig;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& kf, int threads,
+                            double* image_seconds) {
+  const Rig& rig = index.rig;
+  LoopKeyframe lk;
+  lk.frame_index = kf.frame_index;
+  lk.t_ns = kf.t_ns;
+  lk.world_from_rig = kf.world_from_rig;
+  const auto start = std::chrono::steady_clock::now();
+  lk.images.resize(static_cast<size_t>(rig.NumCameras()));
+  if (kf.frame_index >= 0 && kf.frame_index < static_cast<int>(index.frames.size())) {
+    const std::vector<std::filesystem::path>& paths = index.frames[static_cast<size_t>(kf.frame_index)].images;
+    const int n = static_cast<int>(std::min(paths.size(), lk.images.size()));
+    const int workers = std::max(1, std::min(threads, n));
+    std::vector<std::thread> readers;
+    readers.reserve(static_cast<size_t>(workers));
+    for (int w = 0; w < workers; ++w) {
+      readers.emplace_back([&, w] {
+        for (int c = w; c < n; c += workers) {
+          if (!paths[c].empty()) lk.images[c] = cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
+        }
+      });
+    }
+    for (std::thread& reader : readers) reader.join();
+    for (int c = 0; c < n; ++c) {
+      if (!paths[c].empty() && lk.images[c].empty()) {
+        MCVO_THROW_INPUT(paths[c].string(), ": cannot read the image (loop closure)");
+      }
+    }
+  }
+  if (image_seconds != nullptr) {
+    *image_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  for (size_t k = 0; k < kf.observations.size() && k < kf.observation_points.size(); ++k) {
+    const MapObservation& ob = kf.observations[k];
+    lk.points.push_back({ob.camera, ob.landmark_id, ob.pixel, kf.observation_points[k]});
+  }
+  return lk;
+}
+
+RelocalisationSummary RelocaliseSegments(const DatasetIndex& index, const Vocabulary& vocabulary,
+                                         const LoopOptions& options, int threads, OdometryOutput* odometry) {
+  RelocalisationSummary summary;
+  if (!options.relocalise || odometry->segments < 2) return summary;
+  int previous = -1;
+  // Segments in order; each is located against the one before it as that
+  // one stands now (already relocalised itself).
+  const std::vector<int> segments = [&] {
+    std::vector<int> out;
+    for (const auto& [segment, frames] : KeyframesBySegment(odometry->keyframes)) out.push_back(segment);
+    return out;
+  }();
+  for (int segment : segments) {
+    if (previous < 0) {
+      previous = segment;
+      continue;
+    }
+    const std::map<int, std::vector<size_t>> by_segment = KeyframesBySegment(odometry->keyframes);
+    const std::vector<size_t>& before = by_segment.at(previous);
+    const std::vector<size_t>& after = by_segment.at(segment);
+    const int prev_segment = previous;
+    previous = segment;
+    if (before.empty() || after.empty()) continue;
+    const size_t map_count = std::min(before.size(), static_cast<size_t>(options.relocalise_map_keyframes));
+    const std::vector<size_t> map(before.end() - static_cast<std::ptrdiff_t>(map_count), before.end());
+    const size_t query_count = std::min(after.size(), static_cast<size_t>(options.relocalise_query_keyframes));
+    const std::vector<size_t> queries(after.begin(), after.begin() + static_cast<std::ptrdiff_t>(query_count));
+    ++summary.attempted;
+    const Located located = Locate(index, vocabulary, options, threads, odometry->keyframes, map, queries);
+
+    ScaleLogEntry entry;
+    entry.segment = segment;
+    entry.event = "relocalise";
+    const KeyframeEstimate& first_query = odometry->keyframes[queries.front()];
+    entry.frame_index = located.ok ? located.query_frame : first_query.frame_index;
+    entry.t_ns = first_query.t_ns;
+    for (size_t q : queries) {
+      if (odometry->keyframes[q].frame_index == entry.frame_index) entry.t_ns = odometry->keyframes[q].t_ns;
+    }
+    const std::string where =
+        StrCat("in the map of segment ", prev_segment, " (keyframes of frames ",
+               odometry->keyframes[map.front()].frame_index, "-", odometry->keyframes[map.back()].frame_index, ")");
+    if (!located.ok) {
+      entry.applied = false;
+      entry.note = StrCat("segment ", segment, " not relocalised ", where, ": none of its first ", queries.size(),
+                          " keyframes verified (best: ", located.best_failure.empty() ? "no candidate" : located.best_failure,
+                          "); the constant-velocity link stays");
+      MCVO_LOG(kWarning, "run: ", entry.note);
+    } else {
+      // world_prev_from_world_cur, applied to this segment and every later
+      // one (they are chained to it).
+      const Rigid3d correction = located.world_prev_from_query * located.world_cur_from_query.Inverse();
+      std::map<int, Rigid3d> move;
+      for (int s : segments) {
+        if (s >= segment) move[s] = correction;
+      }
+      MoveSegments(move, odometry);
+      ++summary.applied;
+      entry.applied = true;
+      const double shift_m =
+          (located.world_prev_from_query.translation - located.world_cur_from_query.translation).norm();
+      const double shift_deg =
+          located.world_prev_from_query.rotation.angularDistance(located.world_cur_from_query.rotation) * kRadToDeg;
+      entry.note = StrCat("segment ", segment, " relocalised ", where, ": keyframe of frame ", located.query_frame,
+                          " against frame ", located.map_frame, ", ", located.inliers, " inliers in ",
+                          located.cameras, " camera(s), ", located.verified_queries, " of ", queries.size(),
+                          " keyframes verified; moved ", FormatFixed(shift_m, 3), " m, ", FormatFixed(shift_deg, 2),
+                          " deg from the constant-velocity link");
+      MCVO_LOG(kInfo, "run: ", entry.note);
+    }
+    odometry->scale_log.push_back(std::move(entry));
+  }
+  std::stable_sort(odometry->scale_log.begin(), odometry->scale_log.end(),
+                   [](const ScaleLogEntry& a, const ScaleLogEntry& b) { return a.frame_index < b.frame_index; });
+  return summary;
+}
+
+}  // namespace mcvo::pipeline_internal
