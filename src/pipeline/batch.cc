@@ -289,15 +289,6 @@ BatchRunResult GatherRun(const BatchRunSpec& spec, const BatchOptions& options) 
   return result;
 }
 
-std::string CsvQuote(const std::string& text) {
-  std::string out = "\"";
-  for (char c : text) {
-    if (c == '"') out += '"';
-    out += c;
-  }
-  return out + "\"";
-}
-
 std::string MarkdownCell(const std::string& text) {
   std::string out;
   for (char c : text) {

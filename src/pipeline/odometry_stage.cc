@@ -17,15 +17,6 @@ double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-std::string CsvQuote(const std::string& text) {
-  std::string out = "\"";
-  for (char ch : text) {
-    if (ch == '"') out += '"';
-    out += ch;
-  }
-  return out + "\"";
-}
-
 std::unique_ptr<ReversePass> MakeReversePass(const Rig& rig, const PipelineOptions& options,
                                              const InitializerOptions& init_options, int threads) {
   if (!options.backend.reverse_pass) return nullptr;

@@ -134,15 +134,6 @@ RigFrameObservations ToObservations(const Rig& rig, const MultiCameraFrame& fram
   return obs;
 }
 
-std::string CsvQuote(const std::string& text) {
-  std::string out = "\"";
-  for (char ch : text) {
-    if (ch == '"') out += '"';
-    out += ch;
-  }
-  return out + "\"";
-}
-
 void CheckOutputFolder(const std::filesystem::path& out_dir, bool force) {
   std::error_code ec;
   if (std::filesystem::exists(out_dir, ec)) {

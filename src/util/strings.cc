@@ -139,4 +139,13 @@ std::string FormatNsAsSeconds(int64_t t_ns) {
   return (negative ? "-" : "") + std::to_string(seconds) + "." + frac_text;
 }
 
+std::string CsvQuote(std::string_view text) {
+  std::string out = "\"";
+  for (char ch : text) {
+    if (ch == '"') out += '"';
+    out += ch;
+  }
+  return out + "\"";
+}
+
 }  // namespace mcvo

@@ -41,4 +41,7 @@ std::string FormatFixed(double value, int decimals);
 std::optional<int64_t> ParseSecondsToNs(std::string_view text);
 std::string FormatNsAsSeconds(int64_t t_ns);
 
+// A CSV field in double quotes, inner quotes doubled (RFC 4180).
+std::string CsvQuote(std::string_view text);
+
 }  // namespace mcvo
