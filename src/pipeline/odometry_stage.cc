@@ -35,11 +35,7 @@ std::unique_ptr<ReversePass> MakeReversePass(const Rig& rig, const PipelineOptio
 // forward pass has keeps the forward position) and their log lines.
 void ApplyReversePass(ReversePassResult result, OdometryOutput* out) {
   for (const BackfilledFrame& frame : result.frames) {
-    StampedPose pose;
-    pose.t_ns = frame.t_ns;
-    pose.frame_index = frame.frame_index;
-    pose.world_from_body = frame.world_from_rig;
-    out->poses[frame.frame_index] = pose;
+    out->poses[frame.frame_index] = StampedPose{frame.t_ns, frame.frame_index, frame.world_from_rig};
     out->reverse_posed[frame.frame_index] = frame.segment;
   }
   for (KeyframeEstimate& kf : result.keyframes) out->keyframes.push_back(std::move(kf));
@@ -145,11 +141,7 @@ void OdometryStage::Consume(Estimator* estimator, ReversePass* reverse, const Ri
   FrameEstimate est = estimator->AddFrame(frame);
   const double backend_seconds = SecondsSince(start);
   for (const PoseUpdate& update : est.poses) {
-    StampedPose pose;
-    pose.t_ns = update.t_ns;
-    pose.frame_index = update.frame_index;
-    pose.world_from_body = update.world_from_rig;
-    out->poses[update.frame_index] = pose;
+    out->poses[update.frame_index] = StampedPose{update.t_ns, update.frame_index, update.world_from_rig};
   }
   if (reverse != nullptr) reverse->Add(frame, est);
   for (KeyframeEstimate& kf : estimator->TakeFinishedKeyframes()) out->keyframes.push_back(std::move(kf));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <map>
 #include <thread>
 #include <utility>
@@ -26,6 +27,7 @@ constexpr int kRelocaliseLevels = 3;
 struct Located {
   bool ok = false;
   int query_frame = -1;
+  int64_t query_t_ns = 0;
   int map_frame = -1;
   int inliers = 0;
   int cameras = 0;
@@ -73,6 +75,7 @@ Located Locate(const DatasetIndex& index, const Vocabulary& vocabulary, const Lo
       const KeyframeEstimate& candidate = keyframes[map[static_cast<size_t>(attempt.candidate)]];
       best.ok = true;
       best.query_frame = query.frame_index;
+      best.query_t_ns = query.t_ns;
       best.map_frame = candidate.frame_index;
       best.inliers = attempt.inliers;
       best.cameras = attempt.cameras_with_inliers;
@@ -128,25 +131,15 @@ RelocalisationSummary RelocaliseSegments(const DatasetIndex& index, const Vocabu
                                          const LoopOptions& options, int threads, OdometryOutput* odometry) {
   RelocalisationSummary summary;
   if (!options.relocalise || odometry->segments < 2) return summary;
-  int previous = -1;
-  // Segments in order; each is located against the one before it as that
-  // one stands now (already relocalised itself).
-  const std::vector<int> segments = [&] {
-    std::vector<int> out;
-    for (const auto& [segment, frames] : KeyframesBySegment(odometry->keyframes)) out.push_back(segment);
-    return out;
-  }();
-  for (int segment : segments) {
-    if (previous < 0) {
-      previous = segment;
-      continue;
-    }
-    const std::map<int, std::vector<size_t>> by_segment = KeyframesBySegment(odometry->keyframes);
-    const std::vector<size_t>& before = by_segment.at(previous);
-    const std::vector<size_t>& after = by_segment.at(segment);
-    const int prev_segment = previous;
-    previous = segment;
-    if (before.empty() || after.empty()) continue;
+  // Segments in order, each located against the one before it as that one
+  // stands now (already relocalised itself). Moving a segment changes poses
+  // only, not which keyframes it has.
+  const std::map<int, std::vector<size_t>> by_segment = KeyframesBySegment(odometry->keyframes);
+  if (by_segment.size() < 2) return summary;
+  for (auto prev = by_segment.begin(), it = std::next(prev); it != by_segment.end(); prev = it++) {
+    const int prev_segment = prev->first, segment = it->first;
+    const std::vector<size_t>& before = prev->second;
+    const std::vector<size_t>& after = it->second;
     const size_t map_count = std::min(before.size(), static_cast<size_t>(options.relocalise_map_keyframes));
     const std::vector<size_t> map(before.end() - static_cast<std::ptrdiff_t>(map_count), before.end());
     const size_t query_count = std::min(after.size(), static_cast<size_t>(options.relocalise_query_keyframes));
@@ -159,10 +152,7 @@ RelocalisationSummary RelocaliseSegments(const DatasetIndex& index, const Vocabu
     entry.event = "relocalise";
     const KeyframeEstimate& first_query = odometry->keyframes[queries.front()];
     entry.frame_index = located.ok ? located.query_frame : first_query.frame_index;
-    entry.t_ns = first_query.t_ns;
-    for (size_t q : queries) {
-      if (odometry->keyframes[q].frame_index == entry.frame_index) entry.t_ns = odometry->keyframes[q].t_ns;
-    }
+    entry.t_ns = located.ok ? located.query_t_ns : first_query.t_ns;
     const std::string where =
         StrCat("in the map of segment ", prev_segment, " (keyframes of frames ",
                odometry->keyframes[map.front()].frame_index, "-", odometry->keyframes[map.back()].frame_index, ")");
@@ -177,9 +167,7 @@ RelocalisationSummary RelocaliseSegments(const DatasetIndex& index, const Vocabu
       // one (they are chained to it).
       const Rigid3d correction = located.world_prev_from_query * located.world_cur_from_query.Inverse();
       std::map<int, Rigid3d> move;
-      for (int s : segments) {
-        if (s >= segment) move[s] = correction;
-      }
+      for (auto later = it; later != by_segment.end(); ++later) move[later->first] = correction;
       MoveSegments(move, odometry);
       ++summary.applied;
       entry.applied = true;
