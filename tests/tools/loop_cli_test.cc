@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mcvo/util/file.h"
+#include "tools/fixture_cache.h"
 #include "tools/run_mcvo.h"
 
 namespace {
@@ -35,13 +36,14 @@ fs::path Root() {
   return fs::path(::testing::TempDir()) / ("mcvo_loop_cli_test_" + std::to_string(::getpid()));
 }
 
-// length: "--laps X" or "--frames N".
-fs::path Render(const std::string& name, const std::string& scene, const std::string& length) {
-  const fs::path seq = Root() / name;
-  const auto r =
-      RunMcvo("synth --preset kitti360 --scene " + scene + " " + length +
-              " --image-scale 0.35 --rate 5 --samples 1 --noise 1 --seed 3 --out " + Quote(seq.string()) + " --force");
-  EXPECT_EQ(r.exit_code, 0) << r.output;
+// length: "--laps X" or "--frames N". Rendered once per build
+// (tests/tools/fixture_cache.h).
+fs::path Render(const std::string& scene, const std::string& length) {
+  std::string error;
+  const fs::path seq = mcvo::test::CachedSynth("--preset kitti360 --scene " + scene + " " + length +
+                                                   " --image-scale 0.35 --rate 5 --samples 1 --noise 1 --seed 3",
+                                               &error);
+  EXPECT_FALSE(seq.empty()) << error;
   return seq;
 }
 
@@ -76,7 +78,7 @@ class LoopCli : public ::testing::Test {
 };
 
 TEST_F(LoopCli, RevisitIsClosedAndImprovesTheTrajectory) {
-  const fs::path seq = Render("block", "urban_block", "--laps 1.25");
+  const fs::path seq = Render("urban_block", "--laps 1.25");
   const fs::path out1 = Root() / "run1", out2 = Root() / "run2";
   auto r = RunMcvo("run --dataset " + Quote(seq.string()) + " --config " + Config() + " --threads 1 --out " +
                    Quote(out1.string()));
@@ -111,7 +113,7 @@ TEST_F(LoopCli, RevisitIsClosedAndImprovesTheTrajectory) {
 }
 
 TEST_F(LoopCli, RepeatedFacadesWithoutRevisitGiveNoLoop) {
-  const fs::path seq = Render("repeated", "urban_repeated", "--frames 0");
+  const fs::path seq = Render("urban_repeated", "--frames 0");
   const fs::path out = Root() / "run";
   const auto r = RunMcvo("run --dataset " + Quote(seq.string()) + " --config " + ConfigWithMinInliers(25) +
                          " --out " + Quote(out.string()));

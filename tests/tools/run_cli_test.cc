@@ -17,6 +17,7 @@
 
 #include "mcvo/io/trajectory_io.h"
 #include "mcvo/util/file.h"
+#include "tools/fixture_cache.h"
 #include "tools/run_mcvo.h"
 
 namespace {
@@ -25,22 +26,28 @@ namespace fs = std::filesystem;
 using mcvo::test::Quote;
 using mcvo::test::RunMcvo;
 
+// This process's scratch folder, emptied on first use.
 fs::path Root() {
-  return fs::path(::testing::TempDir()) / ("mcvo_run_cli_test_" + std::to_string(::getpid()));
+  static const fs::path dir = [] {
+    const fs::path root = fs::path(::testing::TempDir()) / ("mcvo_run_cli_test_" + std::to_string(::getpid()));
+    fs::remove_all(root);
+    fs::create_directories(root);
+    return root;
+  }();
+  return dir;
 }
 
 constexpr int kFrames = 60;
 
-// Rendered once per process (ctest runs each test as its own process).
+// Rendered once per build and shared by the tests of this file (each its
+// own process): tests/tools/fixture_cache.h. Read only.
 const fs::path& Dataset() {
   static const fs::path dir = [] {
-    const fs::path seq = Root() / "seq";
-    fs::remove_all(Root());
-    fs::create_directories(Root());
-    const auto r =
-        RunMcvo("synth --preset kitti360 --frames " + std::to_string(kFrames) +
-                " --image-scale 0.5 --samples 1 --blackout image_03:20:10 --out " + Quote(seq.string()));
-    EXPECT_EQ(r.exit_code, 0) << r.output;
+    std::string error;
+    const fs::path seq = mcvo::test::CachedSynth("--preset kitti360 --frames " + std::to_string(kFrames) +
+                                                     " --image-scale 0.5 --samples 1 --blackout image_03:20:10",
+                                                 &error);
+    EXPECT_FALSE(seq.empty()) << error;
     return seq;
   }();
   return dir;
@@ -163,7 +170,7 @@ TEST(RunCli, CompletesAccuratelyAndIsDeterministic) {
 }
 
 TEST(RunCli, BadInputFailsCleanlyWithoutOutput) {
-  const fs::path& dataset = Dataset();  // first: it empties Root()
+  const fs::path& dataset = Dataset();
   const fs::path out = Root() / "bad";
   // A dataset that is not there: exit 3, the path named, no output folder.
   auto r = RunMcvo("run --dataset " + Quote((Root() / "nothing").string()) + " --out " + Quote(out.string()));
@@ -224,12 +231,14 @@ TEST(RunCli, AfterEveryCameraIsBlackedOutForTenFramesTheRunGoesOnInTheSameWorld)
   // the segment before is tried (and logged), the constant-velocity link
   // places it otherwise, and the whole trajectory is one: ATE over both
   // segments with one SE3 alignment.
-  const fs::path seq = Root() / "blackout_all";
-  auto r = RunMcvo("synth --preset kitti360 --frames 100 --rate 20 --image-scale 0.35 --samples 1 --noise 1 --seed 5 "
-                   "--blackout all:50:10 --out " + Quote(seq.string()));
-  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::string error;
+  const fs::path seq = mcvo::test::CachedSynth(
+      "--preset kitti360 --frames 100 --rate 20 --image-scale 0.35 --samples 1 --noise 1 --seed 5 "
+      "--blackout all:50:10",
+      &error);
+  ASSERT_FALSE(seq.empty()) << error;
   const fs::path out = Root() / "blackout_all_run";
-  r = RunMcvo("run --dataset " + Quote(seq.string()) + " --config " + Config() + " --out " + Quote(out.string()));
+  auto r = RunMcvo("run --dataset " + Quote(seq.string()) + " --config " + Config() + " --out " + Quote(out.string()));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json result = ReadJson(out / "run.json")["result"];
   EXPECT_EQ(result["segments"], 2);
