@@ -7,8 +7,12 @@
 // with the landmarks' positions) form a bag-of-words database, and each of
 // the new segment's first loop.relocalise_query_keyframes keyframes is
 // matched against its best candidates by BoW and solved by the generalized
-// rig PnP over all cameras (loop/loop_closer.h, Relocalise). The verified
-// query with the most inliers places the segment (and every later one,
+// rig PnP over all cameras (loop/loop_closer.h, Relocalise). When none
+// verifies that way (after a loss the tracks are new, and ORB's corners
+// rarely match descriptors taken at the tracker's), the map's landmarks are
+// re-tracked into the query keyframes by LK, started at their projection
+// under the constant-velocity link, and the same rig PnP and bounds
+// decide. The verified query with the most inliers places the segment (and every later one,
 // chained to it) in the previous segment's world; a rig with metric scale
 // keeps its own scale (the new segment initialised it from the rig). A
 // segment no query verifies keeps its constant-velocity link.
