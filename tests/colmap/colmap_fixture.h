@@ -25,7 +25,7 @@
 
 #include "camera/test_cameras.h"
 #include "mcvo/camera/camera.h"
-#include "mcvo/colmap/sparse_map.h"
+#include "mcvo/map/sparse_map.h"
 #include "mcvo/geometry/rigid3d.h"
 #include "mcvo/synth/renderer.h"
 #include "mcvo/synth/scene.h"

@@ -53,7 +53,7 @@
 
 #include "mcvo/backend/backend_options.h"
 #include "mcvo/camera/camera.h"
-#include "mcvo/colmap/sparse_map.h"
+#include "mcvo/map/sparse_map.h"
 #include "mcvo/geometry/rigid3d.h"
 #include "mcvo/initializer/initializer.h"
 #include "mcvo/initializer/observations.h"

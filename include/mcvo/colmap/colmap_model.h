@@ -33,7 +33,7 @@
 #include <Eigen/Core>
 
 #include "mcvo/camera/camera.h"
-#include "mcvo/colmap/sparse_map.h"
+#include "mcvo/map/sparse_map.h"
 #include "mcvo/geometry/rigid3d.h"
 #include "mcvo/util/enum_names.h"
 

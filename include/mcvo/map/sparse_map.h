@@ -2,7 +2,8 @@
 // observations of every camera of each keyframe, and the landmarks they
 // observe, in one world frame. The estimator produces it (keyframes and
 // landmarks as they leave the window, or at the end), the COLMAP exporter
-// (colmap/colmap_model.h) and loop closure read it.
+// (colmap/colmap_model.h) and loop closure read it. Data only (module
+// map, below backend, colmap and loop).
 //
 // Conventions: poses are world_from_rig (the rig frame of rig.json), pixel
 // coordinates are OpenCV's (the centre of the top-left pixel is (0, 0));
