@@ -28,6 +28,7 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/parallel.h"
 #include "mcvo/util/progress.h"
 #include "mcvo/util/strings.h"
 
@@ -194,9 +195,7 @@ int RunTrack(int argc, const char* const* argv) {
                             " needs --model FILE (or /frontend/model_path in the config)"));
   }
   options.Check();
-  const int worker_threads = options.runtime.threads > 0
-                                 ? options.runtime.threads
-                                 : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const int worker_threads = ResolveThreads(options.runtime.threads);
 
   // The config's camera selection applies unless --cameras overrides it (as
   // in `mcvo run`, so a track file made with a preset replays with it).

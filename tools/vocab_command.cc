@@ -32,6 +32,7 @@
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/parallel.h"
 #include "mcvo/util/progress.h"
 #include "mcvo/util/sha256.h"
 #include "mcvo/util/strings.h"
@@ -200,8 +201,7 @@ int RunTrain(int argc, const char* const* argv) {
     throw UsageError(
         StrCat("--descriptor: unknown value '", a.descriptor, "' (known: orb, xfeat, superpoint)"));
   }
-  const int threads =
-      a.threads > 0 ? a.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const int threads = ResolveThreads(a.threads);
   const Clock::time_point start = Clock::now();
 
   // Datasets: metadata of all of them first.

@@ -26,6 +26,7 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/option_checks.h"
+#include "mcvo/util/parallel.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo {
@@ -253,25 +254,6 @@ void ProcessImage(const PendingImage& image, const ColmapCameraExport& camera_ex
     for (size_t i = 0; i < image.source_pixels.size(); ++i)
       result->has_color[i] = SampleBilinear(bgr, image.source_pixels[i], &result->colors[i]);
   }
-}
-
-// Runs work(i) for i in [0, n) on `threads` threads; each i exactly once.
-template <typename Work>
-void ParallelFor(int n, int threads, Work&& work) {
-  if (threads <= 1 || n <= 1) {
-    for (int i = 0; i < n; ++i) work(i);
-    return;
-  }
-  std::atomic<int> next{0};
-  std::vector<std::thread> pool;
-  const int count = std::min(threads, n);
-  pool.reserve(count);
-  for (int t = 0; t < count; ++t) {
-    pool.emplace_back([&] {
-      for (int i = next++; i < n; i = next++) work(i);
-    });
-  }
-  for (std::thread& thread : pool) thread.join();
 }
 
 // Rig and frames (COLMAP 3.12): the rig frame of COLMAP is its reference
@@ -533,9 +515,7 @@ ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const 
     }
   }
   std::vector<ImageResult> results(images.size());
-  const int threads = options.threads > 0
-                          ? options.threads
-                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const int threads = ResolveThreads(options.threads);
   const bool image_pass = options.image_mode != ColmapImageMode::kNone || options.sample_colors;
   if (image_pass) {
     ParallelFor(static_cast<int>(images.size()), threads, [&](int i) {

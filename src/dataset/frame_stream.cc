@@ -19,6 +19,7 @@
 
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/parallel.h"
 
 namespace mcvo {
 namespace {
@@ -133,7 +134,7 @@ FrameStream::FrameStream(const DatasetIndex& index, const FrameStreamOptions& op
   }
   impl_->prefetch = options.prefetch;
   impl_->slots.resize(static_cast<size_t>(options.prefetch));
-  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  int threads = ResolveThreads(options.threads);
   threads =
       std::clamp(threads, 1, std::max(1, std::min(options.prefetch, static_cast<int>(index.frames.size()))));
   for (int t = 0; t < threads; ++t) impl_->workers.emplace_back([impl = impl_.get()] { impl->Work(); });

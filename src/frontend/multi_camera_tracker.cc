@@ -1,4 +1,4 @@
-// Cameras are tracked on worker threads (std::thread per Track() call; a
+// Cameras are tracked on worker threads (util/parallel.h, threads per Track() call; a
 // frame's work per camera is milliseconds to tens of milliseconds, so thread
 // start-up is negligible), each camera into its own pre-sized slot. After the
 // join, new feature ids are assigned in camera order, so ids and every output
@@ -22,36 +22,10 @@
 #include "mcvo/frontend/cross_camera.h"
 #include "mcvo/frontend/detector.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/parallel.h"
 
 namespace mcvo {
-namespace {
-
-// Runs work(i) for i in [0, n) on up to `threads` threads (the calling one
-// included); rethrows the exception of the smallest failing i.
-template <typename Work>
-void ParallelFor(size_t n, int threads, Work&& work) {
-  std::vector<std::exception_ptr> errors(n);
-  std::atomic<size_t> next{0};
-  auto worker = [&]() {
-    for (size_t i = next++; i < n; i = next++) {
-      try {
-        work(i);
-      } catch (...) {
-        errors[i] = std::current_exception();
-      }
-    }
-  };
-  const size_t workers = std::min(n, static_cast<size_t>(std::max(1, threads)));
-  std::vector<std::thread> pool;
-  for (size_t w = 1; w < workers; ++w) pool.emplace_back(worker);
-  worker();
-  for (std::thread& thread : pool) thread.join();
-  for (const std::exception_ptr& error : errors) {
-    if (error) std::rethrow_exception(error);
-  }
-}
-
-}  // namespace
+namespace {}  // namespace
 
 int CountCrossCameraMatches(const MultiCameraFrame& frame, int camera_a) {
   return static_cast<int>(std::count_if(frame.cross_matches.begin(), frame.cross_matches.end(),
@@ -82,7 +56,7 @@ MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat
   // Each matcher computes its warp map (one Unproject + Project per pixel of
   // camera a: ~0.2 s for a 1408 x 376 camera), so pairs are built in parallel.
   impl_->matchers.resize(impl_->pairs.size());
-  ParallelFor(impl_->pairs.size(), impl_->threads, [&](size_t i) {
+  ParallelFor(static_cast<int>(impl_->pairs.size()), impl_->threads, [&](size_t i) {
     const auto [a, b] = impl_->pairs[i];
     const cv::Mat mask_b = masks.empty() ? cv::Mat() : masks[static_cast<size_t>(b)];
     impl_->matchers[i] = std::make_unique<CrossCameraMatcher>(
@@ -103,13 +77,14 @@ MultiCameraFrame MultiCameraTracker::Track(int frame_index, int64_t t_ns,
   frame.t_ns = t_ns;
   frame.cameras.resize(n);
   // An exception: the first failing camera's, in camera order.
-  ParallelFor(n, impl_->threads, [&](size_t c) { frame.cameras[c] = impl_->trackers[c]->Track(images[c]); });
+  ParallelFor(static_cast<int>(n), impl_->threads,
+              [&](size_t c) { frame.cameras[c] = impl_->trackers[c]->Track(images[c]); });
   for (size_t c = 0; c < n; ++c) impl_->trackers[c]->AssignNewIds(&impl_->next_id, &frame.cameras[c]);
 
   const size_t p = impl_->matchers.size();
   std::vector<std::vector<CrossCameraMatch>> matches(p);
   frame.cross_pair_stats.resize(p);
-  ParallelFor(p, impl_->threads, [&](size_t i) {
+  ParallelFor(static_cast<int>(p), impl_->threads, [&](size_t i) {
     const CrossCameraMatcher& matcher = *impl_->matchers[i];
     const size_t a = static_cast<size_t>(matcher.camera_a());
     const size_t b = static_cast<size_t>(matcher.camera_b());

@@ -19,6 +19,7 @@
 #include "bearing_residual.h"
 #include "mcvo/initializer/rig_window_ba.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/parallel.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo {
@@ -245,18 +246,8 @@ struct Initializer::Impl {
       }
       results[k] = SolveCameraWindowSfm(num_frames, 0, num_frames - 1, observations, options.sfm);
     };
-    const size_t workers = std::min(static_cast<size_t>(threads), cameras.size());
-    if (workers <= 1) {
-      for (size_t k = 0; k < cameras.size(); ++k) solve(k);
-    } else {
-      std::vector<std::thread> pool;
-      for (size_t w = 0; w < workers; ++w) {
-        pool.emplace_back([&, w] {
-          for (size_t k = w; k < cameras.size(); k += workers) solve(k);
-        });
-      }
-      for (std::thread& t : pool) t.join();
-    }
+    ParallelFor(static_cast<int>(cameras.size()), std::max(1, threads),
+                [&](int k) { solve(static_cast<size_t>(k)); });
     return results;
   }
 
@@ -473,7 +464,8 @@ struct Initializer::Impl {
 
   // Leaves camera k (an index into used) out of the solve.
   static void DropCamera(size_t k, std::vector<int>* used, std::vector<CameraSfmResult>* sfm_of_used,
-                         std::vector<CameraWindowTrack>* tracks, std::vector<ScaleMeasurement>* measurements) {
+                         std::vector<CameraWindowTrack>* tracks,
+                         std::vector<ScaleMeasurement>* measurements) {
     used->erase(used->begin() + static_cast<std::ptrdiff_t>(k));
     sfm_of_used->erase(sfm_of_used->begin() + static_cast<std::ptrdiff_t>(k));
     tracks->erase(tracks->begin() + static_cast<std::ptrdiff_t>(k));
@@ -598,8 +590,9 @@ struct Initializer::Impl {
   // waits; *inconsistent is then the index (into used) of the camera that
   // disagrees most with the solution, or used.size() when the failure is
   // not a camera's.
-  bool SolveMetricWindow(int anchor, const std::vector<int>& used, const std::vector<CameraSfmResult>& sfm_of_used,
-                         InitializationResult* out, size_t* inconsistent) {
+  bool SolveMetricWindow(int anchor, const std::vector<int>& used,
+                         const std::vector<CameraSfmResult>& sfm_of_used, InitializationResult* out,
+                         size_t* inconsistent) {
     const int newest = static_cast<int>(window.size()) - 1;
     InitializationResult& result = *out;
     *inconsistent = used.size();
@@ -681,8 +674,8 @@ struct Initializer::Impl {
         return false;
       }
       result.relative_scale_sigma = ba.travel_relative_sigma;
-      *inconsistent = InconsistentCamera(used, sfm_of_used, scales, result.rig_scale, ba.world_from_rig, ba.points,
-                                         point_camera);
+      *inconsistent = InconsistentCamera(used, sfm_of_used, scales, result.rig_scale, ba.world_from_rig,
+                                         ba.points, point_camera);
       if (*inconsistent < used.size()) return false;
       if (!(ba.travel_relative_sigma <= options.max_relative_scale_sigma)) {
         reason = StrCat("scale poorly observable: rig bundle adjustment gives a scale sigma of ",

@@ -13,6 +13,7 @@
 #include "mcvo/backend/rig_pnp.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/option_checks.h"
+#include "mcvo/util/parallel.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo {
@@ -29,7 +30,8 @@ constexpr double kRadToDeg = 180.0 / M_PI;
 // own detections.
 float IntensityCentroidAngle(const cv::Mat& image, float x, float y, int radius) {
   const int cx = static_cast<int>(std::lround(x)), cy = static_cast<int>(std::lround(y));
-  if (cx - radius < 0 || cy - radius < 0 || cx + radius >= image.cols || cy + radius >= image.rows) return 0.0f;
+  if (cx - radius < 0 || cy - radius < 0 || cx + radius >= image.cols || cy + radius >= image.rows)
+    return 0.0f;
   double m01 = 0.0, m10 = 0.0;
   for (int v = -radius; v <= radius; ++v) {
     const uint8_t* row = image.ptr<uint8_t>(cy + v);
@@ -173,19 +175,7 @@ struct LoopCloser::Impl {
   Features Extract(const LoopKeyframe& keyframe) const {
     const int n = rig.NumCameras();
     std::vector<CameraFeatures> per_camera(static_cast<size_t>(n));
-    if (threads > 1 && n > 1) {
-      std::vector<std::thread> workers;
-      const int count = std::min(threads, n);
-      workers.reserve(static_cast<size_t>(count));
-      for (int w = 0; w < count; ++w) {
-        workers.emplace_back([&, w] {
-          for (int c = w; c < n; c += count) per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe);
-        });
-      }
-      for (std::thread& t : workers) t.join();
-    } else {
-      for (int c = 0; c < n; ++c) per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe);
-    }
+    ParallelFor(n, threads, [&](int c) { per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe); });
     Features f;
     f.camera_has_features.assign(static_cast<size_t>(n), false);
     std::vector<cv::Mat> detection_rows, point_rows;

@@ -24,6 +24,7 @@
 #include "mcvo/loop/vocabulary.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/hash.h"
+#include "mcvo/util/parallel.h"
 #include "vocabulary_internal.h"
 
 namespace mcvo {
@@ -237,18 +238,10 @@ void GrowTree(const cv::Mat& rows, Metric metric, const VocabularyTrainOptions& 
       }
     }
     // Small nodes in parallel, one node per thread at a time.
-    std::atomic<size_t> next{0};
-    const auto work = [&] {
-      for (size_t s = next++; s < small.size(); s = next++) {
-        const PendingNode& node = level[small[s]];
-        splits[small[s]] = splitter.Split(node.index, node.members, 1);
-      }
-    };
-    std::vector<std::thread> workers;
-    const size_t helpers = std::min<size_t>(static_cast<size_t>(std::max(threads, 1) - 1), small.size());
-    for (size_t t = 0; t < helpers; ++t) workers.emplace_back(work);
-    work();
-    for (std::thread& worker : workers) worker.join();
+    ParallelFor(static_cast<int>(small.size()), std::max(threads, 1), [&](int s) {
+      const PendingNode& node = level[small[static_cast<size_t>(s)]];
+      splits[small[static_cast<size_t>(s)]] = splitter.Split(node.index, node.members, 1);
+    });
 
     // Children get their indices in parent order.
     std::vector<PendingNode> next_level;
@@ -326,9 +319,7 @@ Vocabulary TrainVocabulary(const std::vector<cv::Mat>& image_descriptors,
     ++image;
   }
 
-  const int threads = options.threads > 0
-                          ? options.threads
-                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const int threads = ResolveThreads(options.threads);
   Vocabulary vocabulary;
   Vocabulary::Impl& impl = *vocabulary.impl_;
   impl.kind = type == CV_8UC1 ? DescriptorKind::kBinary : DescriptorKind::kFloat;

@@ -19,6 +19,7 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/parallel.h"
 #include "mcvo/util/sha256.h"
 #include "mcvo/util/strings.h"
 
@@ -440,12 +441,7 @@ PipelineOptions BatchRunOptions(const BatchRunSpec& spec, int jobs) {
     options.runtime.threads = spec.threads;
   } else if (options.runtime.threads == 0) {
     // The CPUs this process may use (a Slurm task's allocation), not the machine's.
-    int cores = static_cast<int>(std::thread::hardware_concurrency());
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    if (::sched_getaffinity(0, sizeof(set), &set) == 0) cores = CPU_COUNT(&set);
-    cores = std::max(1, cores);
-    options.runtime.threads = std::max(1, cores / std::max(1, jobs));
+    options.runtime.threads = std::max(1, AvailableCores() / std::max(1, jobs));
   }
   options.Check();
   return options;
@@ -500,43 +496,39 @@ BatchReport RunBatch(const BatchManifest& manifest, const BatchOptions& options)
     if (options.shard.Contains(i)) selected.push_back(i);
   }
   report.runs.resize(selected.size());
-  std::atomic<size_t> next{0};
   std::atomic<int> finished{0};
-  auto worker = [&] {
-    for (size_t k = next++; k < selected.size(); k = next++) {
-      const BatchRunSpec& spec = manifest.runs[selected[k]];
-      MCVO_LOG(kInfo, "batch: ", spec.name, ": started (run ", selected[k] + 1, " of the manifest's ",
-               manifest.runs.size(), ")");
-      const std::string command_line =
-          StrCat(options.command_line.empty() ? std::string("mcvo batch") : options.command_line, " [run ",
-                 spec.name, "]");
-      BatchRunResult result = ExecuteRun(spec, options, command_line);
-      try {
-        WriteRecord(options.out_dir, result);
-      } catch (const std::exception& e) {
-        MCVO_LOG(kWarning, "batch: ", spec.name, ": cannot write its status record: ", OneLine(e.what()));
-      }
-      const std::string line =
-          StrCat("batch: [", ++finished, "/", selected.size(), "] ", spec.name, ": ", StatusText(result));
-      if (result.status == BatchRunStatus::kFailed) {
-        MCVO_LOG(kError, line);
-      } else {
-        MCVO_LOG(kInfo, line);
-      }
-      report.runs[k] = std::move(result);
+  // Runs in manifest order to `jobs` workers (util/parallel.h); each writes
+  // its own slot of report.runs.
+  ParallelFor(static_cast<int>(selected.size()), std::max(1, options.jobs), [&](int run) {
+    const size_t k = static_cast<size_t>(run);
+    const BatchRunSpec& spec = manifest.runs[selected[k]];
+    MCVO_LOG(kInfo, "batch: ", spec.name, ": started (run ", selected[k] + 1, " of the manifest's ",
+             manifest.runs.size(), ")");
+    const std::string command_line =
+        StrCat(options.command_line.empty() ? std::string("mcvo batch") : options.command_line, " [run ",
+               spec.name, "]");
+    BatchRunResult result = ExecuteRun(spec, options, command_line);
+    try {
+      WriteRecord(options.out_dir, result);
+    } catch (const std::exception& e) {
+      MCVO_LOG(kWarning, "batch: ", spec.name, ": cannot write its status record: ", OneLine(e.what()));
     }
-  };
-  const int threads = std::min<int>(options.jobs, static_cast<int>(selected.size()));
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (std::thread& thread : pool) thread.join();
+    const std::string line =
+        StrCat("batch: [", ++finished, "/", selected.size(), "] ", spec.name, ": ", StatusText(result));
+    if (result.status == BatchRunStatus::kFailed) {
+      MCVO_LOG(kError, line);
+    } else {
+      MCVO_LOG(kInfo, line);
+    }
+    report.runs[k] = std::move(result);
+  });
   return report;
 }
 
 std::string BatchSummaryCsv(const BatchReport& report) {
   std::string csv =
-      "name,status,note,frames,posed_frames,segments,warning,ate_rmse_m,ate_percent_of_path,rpe_translation_percent,"
+      "name,status,note,frames,posed_frames,segments,warning,ate_rmse_m,ate_percent_of_path,rpe_translation_"
+      "percent,"
       "rpe_rotation_deg_per_100m,scale_error_percent,frames_per_second\n";
   for (const BatchRunResult& r : report.runs) {
     csv += StrCat(r.name, ",", BatchRunStatusName(r.status), ",", CsvQuote(r.note));
@@ -563,11 +555,13 @@ std::string BatchSummaryMarkdown(const BatchReport& report) {
     md += StrCat(" (shard ", report.shard.index, "/", report.shard.count, ")");
   }
   md +=
-      "\n\n| run | status | frames | posed | segments | ATE RMSE (m) | ATE (% of path) | RPE (%) | RPE (deg/100 m) | "
+      "\n\n| run | status | frames | posed | segments | ATE RMSE (m) | ATE (% of path) | RPE (%) | RPE "
+      "(deg/100 m) | "
       "scale error (%) | frames/s | warning |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const BatchRunResult& r : report.runs) {
     md += StrCat("| ", r.name, " | ", MarkdownCell(StatusText(r)), " | ");
-    md += r.has_result ? StrCat(r.frames, " | ", r.posed_frames, " | ", r.segments, " | ") : std::string(" |  |  | ");
+    md += r.has_result ? StrCat(r.frames, " | ", r.posed_frames, " | ", r.segments, " | ")
+                       : std::string(" |  |  | ");
     md += r.evaluated ? FormatFixed(r.ate_rmse_m, 4) + " | " + FormatFixed(r.ate_percent_of_path, 3) + " | "
                       : std::string(" |  | ");
     md += r.has_rpe ? FormatFixed(r.rpe_translation_percent, 3) + " | " +

@@ -17,6 +17,7 @@
 
 #include "mcvo/util/error.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/parallel.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::pipeline_internal {
@@ -55,8 +56,8 @@ std::map<int, std::vector<size_t>> KeyframesBySegment(const std::vector<Keyframe
   return out;
 }
 
-Located Locate(const DatasetIndex& index, const Vocabulary& vocabulary, const LoopOptions& options, int threads,
-               const std::vector<KeyframeEstimate>& keyframes, const std::vector<size_t>& map,
+Located Locate(const DatasetIndex& index, const Vocabulary& vocabulary, const LoopOptions& options,
+               int threads, const std::vector<KeyframeEstimate>& keyframes, const std::vector<size_t>& map,
                const std::vector<size_t>& queries) {
   LoopClosureOptions closure = options.closure;
   closure.landmark_levels = std::max(closure.landmark_levels, kRelocaliseLevels);
@@ -71,8 +72,9 @@ Located Locate(const DatasetIndex& index, const Vocabulary& vocabulary, const Lo
       if (!attempt.verified) {
         if (attempt.matches > best.best_failure_matches) {
           best.best_failure_matches = attempt.matches;
-          best.best_failure = StrCat("frame ", query.frame_index, " against ", attempt.candidate_frame, ": ",
-                                     attempt.matches, " matches, ", attempt.inliers, " inliers, ", attempt.reason);
+          best.best_failure =
+              StrCat("frame ", query.frame_index, " against ", attempt.candidate_frame, ": ", attempt.matches,
+                     " matches, ", attempt.inliers, " inliers, ", attempt.reason);
         }
         continue;
       }
@@ -174,9 +176,9 @@ Located LocateByTracking(const DatasetIndex& index, const LoopClosureOptions& cl
     auto fail = [&](const std::string& reason, int inliers) {
       if (matches <= best.best_failure_matches) return;
       best.best_failure_matches = matches;
-      best.best_failure = StrCat("frame ", query.frame_index, " re-tracked from frames ", sources.back().frame_index,
-                                 "-", sources.front().frame_index, ": ", matches, " tracks, ", inliers,
-                                 " inliers, ", reason);
+      best.best_failure =
+          StrCat("frame ", query.frame_index, " re-tracked from frames ", sources.back().frame_index, "-",
+                 sources.front().frame_index, ": ", matches, " tracks, ", inliers, " inliers, ", reason);
     };
     if (matches < closure.min_inliers) {
       fail(StrCat(matches, " tracks < ", closure.min_inliers), 0);
@@ -228,19 +230,12 @@ LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& k
   const auto start = std::chrono::steady_clock::now();
   lk.images.resize(static_cast<size_t>(rig.NumCameras()));
   if (kf.frame_index >= 0 && kf.frame_index < static_cast<int>(index.frames.size())) {
-    const std::vector<std::filesystem::path>& paths = index.frames[static_cast<size_t>(kf.frame_index)].images;
+    const std::vector<std::filesystem::path>& paths =
+        index.frames[static_cast<size_t>(kf.frame_index)].images;
     const int n = static_cast<int>(std::min(paths.size(), lk.images.size()));
-    const int workers = std::max(1, std::min(threads, n));
-    std::vector<std::thread> readers;
-    readers.reserve(static_cast<size_t>(workers));
-    for (int w = 0; w < workers; ++w) {
-      readers.emplace_back([&, w] {
-        for (int c = w; c < n; c += workers) {
-          if (!paths[c].empty()) lk.images[c] = cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
-        }
-      });
-    }
-    for (std::thread& reader : readers) reader.join();
+    ParallelFor(n, std::max(1, threads), [&](int c) {
+      if (!paths[c].empty()) lk.images[c] = cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
+    });
     for (int c = 0; c < n; ++c) {
       if (!paths[c].empty() && lk.images[c].empty()) {
         MCVO_THROW_INPUT(paths[c].string(), ": cannot read the image (loop closure)");
@@ -272,8 +267,10 @@ RelocalisationSummary RelocaliseSegments(const DatasetIndex& index, const Vocabu
     const std::vector<size_t>& after = it->second;
     const size_t map_count = std::min(before.size(), static_cast<size_t>(options.relocalise_map_keyframes));
     const std::vector<size_t> map(before.end() - static_cast<std::ptrdiff_t>(map_count), before.end());
-    const size_t query_count = std::min(after.size(), static_cast<size_t>(options.relocalise_query_keyframes));
-    const std::vector<size_t> queries(after.begin(), after.begin() + static_cast<std::ptrdiff_t>(query_count));
+    const size_t query_count =
+        std::min(after.size(), static_cast<size_t>(options.relocalise_query_keyframes));
+    const std::vector<size_t> queries(after.begin(),
+                                      after.begin() + static_cast<std::ptrdiff_t>(query_count));
     ++summary.attempted;
     Located located = Locate(index, vocabulary, options, threads, odometry->keyframes, map, queries);
     if (!located.ok) {
@@ -281,9 +278,9 @@ RelocalisationSummary RelocaliseSegments(const DatasetIndex& index, const Vocabu
       if (tracked.ok) {
         located = std::move(tracked);
       } else {
-        located.best_failure = StrCat(located.best_failure.empty() ? "no candidate" : located.best_failure,
-                                      "; re-tracking: ",
-                                      tracked.best_failure.empty() ? "nothing to track" : tracked.best_failure);
+        located.best_failure = StrCat(
+            located.best_failure.empty() ? "no candidate" : located.best_failure,
+            "; re-tracking: ", tracked.best_failure.empty() ? "nothing to track" : tracked.best_failure);
       }
     }
 
@@ -293,14 +290,15 @@ RelocalisationSummary RelocaliseSegments(const DatasetIndex& index, const Vocabu
     const KeyframeEstimate& first_query = odometry->keyframes[queries.front()];
     entry.frame_index = located.ok ? located.query_frame : first_query.frame_index;
     entry.t_ns = located.ok ? located.query_t_ns : first_query.t_ns;
-    const std::string where =
-        StrCat("in the map of segment ", prev_segment, " (keyframes of frames ",
-               odometry->keyframes[map.front()].frame_index, "-", odometry->keyframes[map.back()].frame_index, ")");
+    const std::string where = StrCat("in the map of segment ", prev_segment, " (keyframes of frames ",
+                                     odometry->keyframes[map.front()].frame_index, "-",
+                                     odometry->keyframes[map.back()].frame_index, ")");
     if (!located.ok) {
       entry.applied = false;
-      entry.note = StrCat("segment ", segment, " not relocalised ", where, ": none of its first ", queries.size(),
-                          " keyframes verified (best: ", located.best_failure.empty() ? "no candidate" : located.best_failure,
-                          "); the constant-velocity link stays");
+      entry.note = StrCat(
+          "segment ", segment, " not relocalised ", where, ": none of its first ", queries.size(),
+          " keyframes verified (best: ", located.best_failure.empty() ? "no candidate" : located.best_failure,
+          "); the constant-velocity link stays");
       MCVO_LOG(kWarning, "run: ", entry.note);
     } else {
       // world_prev_from_world_cur, applied to this segment and every later
@@ -314,18 +312,21 @@ RelocalisationSummary RelocaliseSegments(const DatasetIndex& index, const Vocabu
       const double shift_m =
           (located.world_prev_from_query.translation - located.world_cur_from_query.translation).norm();
       const double shift_deg =
-          located.world_prev_from_query.rotation.angularDistance(located.world_cur_from_query.rotation) * kRadToDeg;
-      entry.note = StrCat("segment ", segment, " relocalised ", where, ": keyframe of frame ", located.query_frame,
-                          " against frame ", located.map_frame, " (", located.method, "), ", located.inliers, " inliers in ",
-                          located.cameras, " camera(s), ", located.verified_queries, " of ", queries.size(),
-                          " keyframes verified; moved ", FormatFixed(shift_m, 3), " m, ", FormatFixed(shift_deg, 2),
-                          " deg from the constant-velocity link");
+          located.world_prev_from_query.rotation.angularDistance(located.world_cur_from_query.rotation) *
+          kRadToDeg;
+      entry.note =
+          StrCat("segment ", segment, " relocalised ", where, ": keyframe of frame ", located.query_frame,
+                 " against frame ", located.map_frame, " (", located.method, "), ", located.inliers,
+                 " inliers in ", located.cameras, " camera(s), ", located.verified_queries, " of ",
+                 queries.size(), " keyframes verified; moved ", FormatFixed(shift_m, 3), " m, ",
+                 FormatFixed(shift_deg, 2), " deg from the constant-velocity link");
       MCVO_LOG(kInfo, "run: ", entry.note);
     }
     odometry->scale_log.push_back(std::move(entry));
   }
-  std::stable_sort(odometry->scale_log.begin(), odometry->scale_log.end(),
-                   [](const ScaleLogEntry& a, const ScaleLogEntry& b) { return a.frame_index < b.frame_index; });
+  std::stable_sort(
+      odometry->scale_log.begin(), odometry->scale_log.end(),
+      [](const ScaleLogEntry& a, const ScaleLogEntry& b) { return a.frame_index < b.frame_index; });
   return summary;
 }
 

@@ -33,6 +33,7 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/parallel.h"
 #include "mcvo/util/progress.h"
 #include "mcvo/util/sha256.h"
 #include "mcvo/util/strings.h"
@@ -309,7 +310,8 @@ std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetInde
   return inputs;
 }
 
-std::string RunPosingWarning(int frames, int posed, int cameras, const std::vector<std::string>& unposed_reasons) {
+std::string RunPosingWarning(int frames, int posed, int cameras,
+                             const std::vector<std::string>& unposed_reasons) {
   if (frames <= 0 || 2 * posed >= frames) return {};
   const std::string head =
       StrCat(posed == 0 ? "no frame posed" : StrCat("only ", posed, " of ", frames, " frames posed"), " (",
@@ -349,9 +351,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
   const DatasetIndex index = OpenDataset(dataset_options);
   const Rig& rig = index.rig;
-  const int threads = options.runtime.threads > 0
-                          ? options.runtime.threads
-                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const int threads = ResolveThreads(options.runtime.threads);
   for (const std::string& name : options.initializer.required_cameras) {
     if (rig.FindCamera(name) < 0) {
       MCVO_THROW_INPUT(request.config_source, ": /initializer/required_cameras: camera \"", name,
@@ -458,7 +458,8 @@ RunSummary RunPipeline(const RunRequest& request) {
   // After a tracking loss: the new segment located in the old one's map.
   pipeline_internal::RelocalisationSummary relocalisation;
   if (vocabulary) {
-    relocalisation = pipeline_internal::RelocaliseSegments(index, *vocabulary, options.loop, threads, &odometry);
+    relocalisation =
+        pipeline_internal::RelocaliseSegments(index, *vocabulary, options.loop, threads, &odometry);
   }
   std::map<int, StampedPose>& poses = odometry.poses;
   std::vector<KeyframeEstimate>& keyframes = odometry.keyframes;
@@ -526,9 +527,11 @@ RunSummary RunPipeline(const RunRequest& request) {
   {
     std::vector<std::string> unposed_reasons;
     for (const pipeline_internal::FrameRecord& record : odometry.records) {
-      if (poses.count(record.estimate.frame_index) == 0) unposed_reasons.push_back(record.estimate.waiting_reason);
+      if (poses.count(record.estimate.frame_index) == 0)
+        unposed_reasons.push_back(record.estimate.waiting_reason);
     }
-    summary.warning = RunPosingWarning(summary.frames, summary.posed_frames, rig.NumCameras(), unposed_reasons);
+    summary.warning =
+        RunPosingWarning(summary.frames, summary.posed_frames, rig.NumCameras(), unposed_reasons);
   }
 
   // Outputs.

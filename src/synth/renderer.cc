@@ -19,31 +19,17 @@
 
 #include "mcvo/synth/material.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/parallel.h"
 
 namespace mcvo::synth {
 namespace {
 
-// Calls row_fn(y) for y in [0, rows) on `threads` threads (0: hardware
-// threads). Rows are handed out through an atomic counter for load balance;
-// row_fn must write only its own row, so the result does not depend on which
-// thread ran which row.
+// Calls row_fn(y) for y in [0, rows) on `threads` threads (0: all cores;
+// util/parallel.h); row_fn must write only its own row, so the result does
+// not depend on which thread ran which row.
 template <typename RowFn>
 void ForEachRow(int rows, int threads, RowFn&& row_fn) {
-  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = std::min(threads, rows);
-  std::atomic<int> next_row{0};
-  auto worker = [&]() {
-    for (int y = next_row++; y < rows; y = next_row++) row_fn(y);
-  };
-  if (threads <= 1) {
-    worker();
-    return;
-  }
-  std::vector<std::thread> pool;
-  pool.reserve(threads - 1);
-  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
-  worker();
-  for (std::thread& thread : pool) thread.join();
+  ParallelFor(rows, threads, [&](int y) { row_fn(y); });
 }
 
 // Bearings of every sample of a camera (the fixed stratified grid), and per
