@@ -1,0 +1,58 @@
+// The frame source of `mcvo run` (private to pipeline/): the frontend on
+// images (MultiCameraTracker over a FrameStream) or the replay of a track
+// file of `mcvo track`, on a producer thread of its own, a bounded queue
+// ahead of the odometry stage that consumes it in frame order. Everything
+// that can be wrong with the source (a track file of other cameras, a
+// detector model that does not load) is found by the constructor, before
+// any frame is decoded; an error while producing reaches the consumer from
+// Next().
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include "mcvo/camera/camera.h"
+#include "mcvo/dataset/dataset.h"
+#include "mcvo/frontend/frontend_options.h"
+#include "mcvo/frontend/multi_camera_tracker.h"
+#include "mcvo/initializer/observations.h"
+
+namespace mcvo::pipeline_internal {
+
+// A frame from the frontend (tracked now, or read from a track file) and the
+// wall time it took.
+struct FrontendItem {
+  MultiCameraFrame frame;
+  double seconds = 0.0;
+};
+
+class FrameSource {
+ public:
+  // tracks: a track file to replay (its cameras must be the dataset's, in
+  // order), or empty to track the dataset's images with `frontend` on
+  // `threads` threads. Throws InputError.
+  FrameSource(const DatasetIndex& index, const FrontendOptions& frontend, const std::filesystem::path& tracks,
+              int threads);
+  // Cancels the producer and joins it.
+  ~FrameSource();
+  FrameSource(const FrameSource&) = delete;
+  FrameSource& operator=(const FrameSource&) = delete;
+
+  // Starts producing the first `frames` frames.
+  void Start(int frames);
+  // The next frame in order; nullopt at the end. Rethrows the producer's
+  // exception.
+  std::optional<FrontendItem> Next();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The estimator's input from a frontend frame: each feature's pixel and unit
+// bearing (features whose pixel the camera model cannot unproject dropped),
+// the cross-camera matches likewise.
+RigFrameObservations ToObservations(const Rig& rig, const MultiCameraFrame& frame);
+
+}  // namespace mcvo::pipeline_internal
