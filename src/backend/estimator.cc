@@ -15,6 +15,7 @@
 #include "mcvo/backend/factors.h"
 #include "mcvo/backend/marginalization.h"
 #include "mcvo/backend/rig_pnp.h"
+#include "mcvo/backend/scale_filter.h"
 #include "mcvo/initializer/rig_window_ba.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/strings.h"
@@ -31,11 +32,11 @@ constexpr double kMinTriangulationAngleRad = 0.5 * kDegToRad;
 constexpr double kMinLandmarkDistanceM = 0.1;
 constexpr double kMaxLandmarkDistanceM = 1000.0;
 // Scale correction: iterations of its rig BA; the window must travel at
-// least this far; a measurement this many sigmas from the current scale is
-// an outlier; a camera's own ratio needs this many landmarks.
+// least this far; a camera's own ratio needs this many landmarks. (A
+// measurement more than ScaleFilterOptions::max_innovation_sigmas = 4 from
+// the current scale is an outlier.)
 constexpr int kScaleCorrectionIterations = 20;
 constexpr double kMinCorrectionTravelM = 2.0;
-constexpr double kMaxInnovationSigmas = 4.0;
 constexpr size_t kMinCameraDepthRatios = 10;
 
 double Seconds(std::chrono::steady_clock::time_point since) {
@@ -95,6 +96,10 @@ struct Estimator::Impl {
     frame_pool.resize(static_cast<size_t>(options.window_size) + 2);
     slot_used.assign(frame_pool.size(), false);
     sqrt_information = options.virtual_focal_px / options.reprojection_sigma_px;
+    ScaleFilterOptions filter_options;
+    filter_options.drift_per_100m = options.scale_drift_per_100m;
+    filter_options.min_change = options.scale_correction_min_change;
+    scale_filter = ScaleFilter(filter_options);
   }
 
   const Rig rig;
@@ -122,8 +127,7 @@ struct Estimator::Impl {
   int solves_since_correction = 0;
   // Relative variance of the current scale (log scale) and where it was last
   // grown (see GrowScaleVariance).
-  double scale_variance = 0.0;
-  std::optional<Eigen::Vector3d> scale_variance_at;
+  ScaleFilter scale_filter;  // the scale's uncertainty (scale_filter.h)
 
   // Last two poses (constant-velocity prediction; placing a new segment).
   std::optional<Rigid3d> last_pose, previous_pose;
@@ -624,10 +628,10 @@ struct Estimator::Impl {
     entry.event = "correction";
     const int n = rig.NumCameras();
     entry.camera_scales.assign(n, 1.0);
-    GrowScaleVariance();
+    if (last_pose) scale_filter.Travel(last_pose->translation);
     auto log = [&](std::string note) {
       entry.note = std::move(note);
-      entry.scale_sigma = std::sqrt(scale_variance);
+      entry.scale_sigma = scale_filter.sigma();
       scale_log.push_back(std::move(entry));
       estimate->seconds_scale += Seconds(start);
     };
@@ -677,18 +681,15 @@ struct Estimator::Impl {
     // A measurement: this correction is done (applied or not); until then
     // the next solves try again while the window turns.
     solves_since_correction = 0;
-    const double innovation = std::log(ratio);
-    const double innovation_sigma = std::sqrt(scale_variance + sigma * sigma);
-    if (std::abs(innovation) > kMaxInnovationSigmas * innovation_sigma) {
+    const ScaleFilter::Update update = scale_filter.Measure(ratio, sigma);
+    if (update.outcome == ScaleFilter::Outcome::kOutlier) {
       return log(StrCat("not applied: ratio ", FormatFixed(ratio, 4), " is ",
-                        FormatFixed(std::abs(innovation) / innovation_sigma, 1),
-                        " sigma from the current scale (outlier)"));
+                        FormatFixed(update.innovation_sigmas, 1), " sigma from the current scale (outlier)"));
     }
-    const double gain = scale_variance / (scale_variance + sigma * sigma);
-    const double k = std::exp(gain * innovation);
+    const double gain = update.gain;
+    const double k = update.factor;
     entry.gain = gain;
-    if (std::abs(k - 1.0) <= options.scale_correction_min_change) {
-      scale_variance *= 1.0 - gain;
+    if (update.outcome == ScaleFilter::Outcome::kBelowMinChange) {
       return log(StrCat("not applied: fused change ", FormatFixed(100.0 * (k - 1.0), 3),
                         " % below scale_correction_min_change"));
     }
@@ -739,23 +740,10 @@ struct Estimator::Impl {
     for (auto& [id, lm] : landmarks) {
       if (lm.triangulated) lm.inverse_depth /= camera_k[lm.camera];
     }
-    scale_variance *= 1.0 - gain;
     entry.applied_ratio = k;
     entry.camera_scales = camera_k;
     entry.applied = true;
     log("applied to window positions, prior and landmark inverse depths");
-  }
-
-  // The current scale's variance grows as a random walk over the distance
-  // travelled since the last call.
-  void GrowScaleVariance() {
-    if (!last_pose) return;
-    if (scale_variance_at) {
-      const double travelled = (last_pose->translation - *scale_variance_at).norm();
-      const double per_metre = options.scale_drift_per_100m * options.scale_drift_per_100m / 100.0;
-      scale_variance += per_metre * travelled;
-    }
-    scale_variance_at = last_pose->translation;
   }
 
   // ---------------------------------------------------------------- initialisation
@@ -834,8 +822,7 @@ struct Estimator::Impl {
     // The initialiser's scale std (its bound when it reported none).
     const double init_sigma =
         init.relative_scale_sigma > 0.0 ? init.relative_scale_sigma : init_options.max_relative_scale_sigma;
-    scale_variance = init_sigma * init_sigma;
-    scale_variance_at = last_pose->translation;
+    scale_filter.Start(init_sigma, last_pose->translation);
     entry.scale_sigma = init_sigma;
     entry.note = StrCat("scale from ",
                         init.source == ScaleSource::kRigRotation   ? "rig rotation"
