@@ -324,57 +324,41 @@ void AddNotes(const ColmapExportOptions& options, bool blanks_replaced, ColmapEx
     report->notes.push_back("blanks in image names replaced by '_' (COLMAP's text format)");
 }
 
-}  // namespace
-
-void ColmapExportOptions::Check() const {
-  CheckInRange("/colmap/fisheye_max_angle_deg", fisheye_max_angle_deg, 1.0, 89.0);
-  CheckAtLeast("/colmap/fit_grid", fit_grid, 8);
-  if (fit_grid > 1024) MCVO_THROW_INPUT("/colmap/fit_grid: must be <= 1024, got ", fit_grid);
-  CheckInRange("/colmap/undistort_fov_deg", undistort_fov_deg, 10.0, 170.0);
-  CheckAtLeast("/colmap/min_track_length", min_track_length, 1);
-  CheckAtLeast("/colmap/threads", threads, 0);
-}
-
-ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const fs::path& dataset_root,
-                                    const ColmapExportOptions& options, const fs::path& out_dir) {
-  options.Check();
-  if (rig.NumCameras() == 0) MCVO_THROW_INPUT("rig: no cameras");
-  CheckMap(rig, map);
-  const fs::path absolute_out = fs::absolute(out_dir).lexically_normal();
-  std::error_code ec;
-  if (fs::exists(absolute_out, ec)) {
-    if (!fs::is_directory(absolute_out, ec))
-      MCVO_THROW_INPUT(absolute_out.string(), ": exists and is not a folder");
-    if (!fs::is_empty(absolute_out, ec) && !options.overwrite)
-      MCVO_THROW_INPUT(absolute_out.string(),
-                       ": folder exists and is not empty (set overwrite to replace it)");
-  }
-
-  ColmapExportReport report;
-  // Cameras.
+// The rig's cameras as COLMAP cameras (fitted or undistorted per
+// fisheye_policy) into report->camera_exports; the undistortion maps of the
+// undistorted ones when images are written.
+void ConvertCameras(const Rig& rig, const ColmapExportOptions& options, ColmapExportReport* report,
+                    std::vector<cv::Mat>* maps_x, std::vector<cv::Mat>* maps_y) {
+  maps_x->assign(static_cast<size_t>(rig.NumCameras()), cv::Mat());
+  maps_y->assign(static_cast<size_t>(rig.NumCameras()), cv::Mat());
   for (int c = 0; c < rig.NumCameras(); ++c) {
-    report.camera_exports.push_back(
+    report->camera_exports.push_back(
         ConvertCameraToColmap(rig.cameras[c], static_cast<uint32_t>(c + 1), options));
-    if (report.camera_exports.back().undistorted && options.image_mode == ColmapImageMode::kNone) {
+    if (report->camera_exports.back().undistorted && options.image_mode == ColmapImageMode::kNone) {
       throw UsageError(StrCat("colmap export: camera '", rig.cameras[c].name,
                               "' is undistorted (fisheye_policy undistort), which needs its images written: "
                               "image_mode must be link or copy"));
     }
   }
-  std::vector<cv::Mat> maps_x(rig.NumCameras()), maps_y(rig.NumCameras());
   if (options.image_mode != ColmapImageMode::kNone) {
     for (int c = 0; c < rig.NumCameras(); ++c) {
-      if (report.camera_exports[c].undistorted)
-        colmap_internal::MakeUndistortMaps(rig.cameras[c], report.camera_exports[c].camera, &maps_x[c],
-                                           &maps_y[c]);
+      if (report->camera_exports[c].undistorted)
+        colmap_internal::MakeUndistortMaps(rig.cameras[c], report->camera_exports[c].camera, &(*maps_x)[c],
+                                           &(*maps_y)[c]);
     }
   }
+}
 
-  // Images, in keyframe then camera order, with their kept observations.
+// Images, in keyframe then camera order, with their kept observations (in
+// front of the camera, inside the exported model's domain);
+// (*track_length)[l]: observations of landmark l kept.
+std::vector<PendingImage> CollectImages(const Rig& rig, const SparseMap& map, const fs::path& dataset_root,
+                                        ColmapExportReport* report, std::vector<int>* track_length,
+                                        bool* blanks_replaced) {
   std::vector<PendingImage> images;
   std::map<std::string, size_t> names;
-  bool blanks_replaced = false;
-  std::vector<int> track_length(map.landmarks.size(), 0);
+  *blanks_replaced = false;
+  track_length->assign(map.landmarks.size(), 0);
   for (size_t k = 0; k < map.keyframes.size(); ++k) {
     const MapKeyframe& keyframe = map.keyframes[k];
     const Rigid3d rig_from_world = keyframe.world_from_rig.Inverse();
@@ -385,7 +369,7 @@ ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const 
       image.camera = c;
       image.cam_from_world = Canonical(rig.cameras[c].cam_from_rig * rig_from_world);
       const Camera& camera = rig.cameras[c];
-      ColmapCameraExport& camera_export = report.camera_exports[c];
+      ColmapCameraExport& camera_export = report->camera_exports[c];
       bool has_observations = false;
       for (const MapObservation& observation : keyframe.observations) {
         if (observation.camera != c) continue;
@@ -413,17 +397,17 @@ ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const 
         image.points2d.push_back(*point2d);
         image.source_pixels.push_back(observation.pixel);
         image.landmarks.push_back(landmark);
-        ++track_length[landmark];
+        ++(*track_length)[landmark];
       }
       if (listed.empty() && !has_observations) continue;
       if (listed.empty()) {
-        ++report.images_without_source;
+        ++report->images_without_source;
         image.name = camera.name + "/" + Padded(keyframe.frame_index) + ".png";
       } else {
         image.source = listed.is_absolute() ? listed : dataset_root / listed;
         image.name = BaseImageName(listed, dataset_root, camera.name);
       }
-      blanks_replaced |= ReplaceBlanks(&image.name);
+      *blanks_replaced |= ReplaceBlanks(&image.name);
       if (names.count(image.name) != 0) {
         // Two files of the same name outside dataset_root: prefix the frame index.
         const std::string alternative =
@@ -439,26 +423,37 @@ ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const 
       images.push_back(std::move(image));
     }
   }
+  return images;
+}
 
-  // Points: landmarks with enough kept observations; the ids in the images.
+// The model's points (landmarks with at least min_track_length kept
+// observations), its images with the observations of those points only
+// (dropped from `images` too), its cameras; *point_index_of_landmark maps a
+// landmark to its point (kColmapNoPoint3D: none); *error_total sums the
+// points' mean reprojection errors.
+ColmapModel BuildModel(const SparseMap& map, const ColmapExportOptions& options,
+                       const std::vector<int>& track_length, std::vector<PendingImage>* images_io,
+                       ColmapExportReport* report, std::vector<uint64_t>* point_index_of_landmark,
+                       double* error_total_out) {
+  std::vector<PendingImage>& images = *images_io;
   ColmapModel model;
-  std::vector<uint64_t> point_index_of_landmark(map.landmarks.size(), kColmapNoPoint3D);
+  point_index_of_landmark->assign(map.landmarks.size(), kColmapNoPoint3D);
   for (size_t l = 0; l < map.landmarks.size(); ++l) {
     if (track_length[l] >= options.min_track_length) {
-      point_index_of_landmark[l] = model.points3d.size();
+      (*point_index_of_landmark)[l] = model.points3d.size();
       ColmapPoint3D point;
       point.id = static_cast<uint64_t>(map.landmarks[l].id) + 1;
       point.xyz = map.landmarks[l].position_world;
       model.points3d.push_back(point);
     } else {
-      ++report.landmarks_dropped;
+      ++report->landmarks_dropped;
     }
   }
   for (PendingImage& image : images) {
     // Drop the observations of landmarks that did not become points.
     size_t kept = 0;
     for (size_t i = 0; i < image.landmarks.size(); ++i) {
-      if (point_index_of_landmark[image.landmarks[i]] == kColmapNoPoint3D) continue;
+      if ((*point_index_of_landmark)[image.landmarks[i]] == kColmapNoPoint3D) continue;
       image.points2d[kept] = image.points2d[i];
       image.source_pixels[kept] = image.source_pixels[i];
       image.landmarks[kept] = image.landmarks[i];
@@ -467,11 +462,11 @@ ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const 
     image.points2d.resize(kept);
     image.source_pixels.resize(kept);
     image.landmarks.resize(kept);
-    report.camera_exports[image.camera].observations_written += static_cast<int64_t>(kept);
+    report->camera_exports[image.camera].observations_written += static_cast<int64_t>(kept);
   }
   std::vector<double> error_sum(model.points3d.size(), 0.0);
   for (const PendingImage& image : images) {
-    const ColmapCamera& camera = report.camera_exports[image.camera].camera;
+    const ColmapCamera& camera = report->camera_exports[image.camera].camera;
     ColmapImage out;
     out.id = image.id;
     out.cam_from_world = image.cam_from_world;
@@ -479,7 +474,7 @@ ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const 
     out.name = image.name;
     out.points2d = image.points2d;
     for (size_t i = 0; i < image.landmarks.size(); ++i) {
-      const uint64_t p = point_index_of_landmark[image.landmarks[i]];
+      const uint64_t p = (*point_index_of_landmark)[image.landmarks[i]];
       ColmapPoint3D& point = model.points3d[p];
       out.point3d_ids.push_back(point.id);
       point.track.push_back({image.id, static_cast<uint32_t>(i)});
@@ -490,25 +485,23 @@ ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const 
     }
     model.images.push_back(std::move(out));
   }
-  double error_total = 0.0;
+  double& error_total = *error_total_out;
+  error_total = 0.0;
   for (size_t p = 0; p < model.points3d.size(); ++p) {
     model.points3d[p].error = error_sum[p] / static_cast<double>(model.points3d[p].track.size());
     error_total += model.points3d[p].error;
   }
-  for (const ColmapCameraExport& camera_export : report.camera_exports)
+  for (const ColmapCameraExport& camera_export : report->camera_exports)
     model.cameras.push_back(camera_export.camera);
+  return model;
+}
 
-  if (options.write_rig_files) AddRigAndFrames(rig, map, images, &model);
-
-  // Staging folder, renamed onto out_dir at the end.
-  CreateDirectories(absolute_out.parent_path());
-  TemporaryFolder staging(absolute_out.parent_path() /
-                          (absolute_out.filename().string() + ".tmp-" + std::to_string(::getpid())));
-  fs::remove_all(staging.path(), ec);
-  CreateDirectories(staging.path());
-  const fs::path image_dir = staging.path() / "images";
-
-  // Images: link / copy / remap, and colours, in parallel into slots.
+// Images linked, copied or remapped into image_dir and the points' colours
+// sampled, in parallel into slots; report's image counts.
+void ExportImages(const std::vector<PendingImage>& images, const std::vector<cv::Mat>& maps_x,
+                  const std::vector<cv::Mat>& maps_y, const ColmapExportOptions& options,
+                  const fs::path& image_dir, const std::vector<uint64_t>& point_index_of_landmark,
+                  ColmapExportReport* report, ColmapModel* model) {
   if (options.image_mode != ColmapImageMode::kNone) {
     for (const PendingImage& image : images) {
       if (!image.source.empty()) CreateDirectories((image_dir / image.name).parent_path());
@@ -522,20 +515,20 @@ ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const 
       const PendingImage& image = images[i];
       if (image.source.empty()) return;
       try {
-        ProcessImage(image, report.camera_exports[image.camera], &maps_x[image.camera], &maps_y[image.camera],
-                     options, image_dir, &results[i]);
+        ProcessImage(image, report->camera_exports[image.camera], &maps_x[image.camera],
+                     &maps_y[image.camera], options, image_dir, &results[i]);
       } catch (...) {
         results[i].error = std::current_exception();
       }
     });
   }
-  std::vector<Eigen::Vector3d> color_sum(model.points3d.size(), Eigen::Vector3d::Zero());
-  std::vector<int> color_count(model.points3d.size(), 0);
+  std::vector<Eigen::Vector3d> color_sum(model->points3d.size(), Eigen::Vector3d::Zero());
+  std::vector<int> color_count(model->points3d.size(), 0);
   for (size_t i = 0; i < images.size(); ++i) {
     if (results[i].error) std::rethrow_exception(results[i].error);
-    report.images_written += results[i].written ? 1 : 0;
+    report->images_written += results[i].written ? 1 : 0;
     if (options.sample_colors && !images[i].source.empty() && !results[i].read_for_color)
-      ++report.images_without_color;
+      ++report->images_without_color;
     for (size_t o = 0; o < results[i].colors.size(); ++o) {
       if (!results[i].has_color[o]) continue;
       const uint64_t p = point_index_of_landmark[images[i].landmarks[o]];
@@ -543,14 +536,67 @@ ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const 
       ++color_count[p];
     }
   }
-  for (size_t p = 0; p < model.points3d.size(); ++p) {
+  for (size_t p = 0; p < model->points3d.size(); ++p) {
     for (int c = 0; c < 3; ++c) {
-      model.points3d[p].rgb[c] =
+      model->points3d[p].rgb[c] =
           color_count[p] == 0
               ? 128
               : static_cast<uint8_t>(std::clamp(std::lround(color_sum[p][c] / color_count[p]), 0L, 255L));
     }
   }
+}
+
+}  // namespace
+
+void ColmapExportOptions::Check() const {
+  CheckInRange("/colmap/fisheye_max_angle_deg", fisheye_max_angle_deg, 1.0, 89.0);
+  CheckAtLeast("/colmap/fit_grid", fit_grid, 8);
+  if (fit_grid > 1024) MCVO_THROW_INPUT("/colmap/fit_grid: must be <= 1024, got ", fit_grid);
+  CheckInRange("/colmap/undistort_fov_deg", undistort_fov_deg, 10.0, 170.0);
+  CheckAtLeast("/colmap/min_track_length", min_track_length, 1);
+  CheckAtLeast("/colmap/threads", threads, 0);
+}
+
+ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const fs::path& dataset_root,
+                                    const ColmapExportOptions& options, const fs::path& out_dir) {
+  options.Check();
+  if (rig.NumCameras() == 0) MCVO_THROW_INPUT("rig: no cameras");
+  CheckMap(rig, map);
+  const fs::path absolute_out = fs::absolute(out_dir).lexically_normal();
+  std::error_code ec;
+  if (fs::exists(absolute_out, ec)) {
+    if (!fs::is_directory(absolute_out, ec))
+      MCVO_THROW_INPUT(absolute_out.string(), ": exists and is not a folder");
+    if (!fs::is_empty(absolute_out, ec) && !options.overwrite)
+      MCVO_THROW_INPUT(absolute_out.string(),
+                       ": folder exists and is not empty (set overwrite to replace it)");
+  }
+
+  ColmapExportReport report;
+  std::vector<cv::Mat> maps_x, maps_y;
+  ConvertCameras(rig, options, &report, &maps_x, &maps_y);
+
+  bool blanks_replaced = false;
+  std::vector<int> track_length;
+  std::vector<PendingImage> images =
+      CollectImages(rig, map, dataset_root, &report, &track_length, &blanks_replaced);
+
+  std::vector<uint64_t> point_index_of_landmark;
+  double error_total = 0.0;
+  ColmapModel model =
+      BuildModel(map, options, track_length, &images, &report, &point_index_of_landmark, &error_total);
+
+  if (options.write_rig_files) AddRigAndFrames(rig, map, images, &model);
+
+  // Staging folder, renamed onto out_dir at the end.
+  CreateDirectories(absolute_out.parent_path());
+  TemporaryFolder staging(absolute_out.parent_path() /
+                          (absolute_out.filename().string() + ".tmp-" + std::to_string(::getpid())));
+  fs::remove_all(staging.path(), ec);
+  CreateDirectories(staging.path());
+  const fs::path image_dir = staging.path() / "images";
+
+  ExportImages(images, maps_x, maps_y, options, image_dir, point_index_of_landmark, &report, &model);
 
   // Model files.
   const fs::path model_dir = staging.path() / "sparse" / "0";
