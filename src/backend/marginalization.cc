@@ -103,14 +103,132 @@ bool MinusPlusJacobian(const ceres::Manifold& manifold, const double* x, const d
   return true;
 }
 
+// A residual block given to the marginaliser.
+struct ResidualBlock {
+  const ceres::CostFunction* cost = nullptr;
+  const ceres::LossFunction* loss = nullptr;
+  std::vector<double*> blocks;
+};
+
+// A variable of the linearisation: a parameter block that is not constant,
+// its sizes and offset in the tangent vector.
+struct Variable {
+  double* block = nullptr;
+  int ambient = 0, tangent = 0, offset = 0;
+  const ceres::Manifold* manifold = nullptr;
+  RowMajorMatrix plus_jacobian;  // at the current value (manifold blocks)
+};
+
+// Adds one residual block to H = J^T J and b = -J^T r in the tangent spaces
+// (after the robust loss's correction), and unites in *drop_parent the
+// blocks to drop that it couples. A block that fails to evaluate or has a
+// non-finite Jacobian is left out with a warning.
+void AddToNormalEquations(const ResidualBlock& residual, const std::vector<Variable>& variables,
+                          const std::map<const double*, int>& index, size_t num_drop,
+                          std::vector<int>* drop_parent, Eigen::MatrixXd* h, Eigen::VectorXd* b) {
+  const int num_residuals = residual.cost->num_residuals();
+  const size_t num_blocks = residual.blocks.size();
+  std::vector<RowMajorMatrix> ambient_jacobians(num_blocks);
+  std::vector<double*> jacobian_ptrs(num_blocks, nullptr);
+  std::vector<const double*> parameters(residual.blocks.begin(), residual.blocks.end());
+  for (size_t i = 0; i < num_blocks; ++i) {
+    if (index.count(residual.blocks[i]) == 0) continue;  // constant
+    ambient_jacobians[i].resize(num_residuals, residual.cost->parameter_block_sizes()[i]);
+    jacobian_ptrs[i] = ambient_jacobians[i].data();
+  }
+  Eigen::VectorXd r(num_residuals);
+  if (!residual.cost->Evaluate(parameters.data(), r.data(), jacobian_ptrs.data()) || !r.allFinite()) {
+    MCVO_LOG(kWarning, "marginalisation: a residual block failed to evaluate; left out");
+    return;
+  }
+  // Tangent Jacobians, side by side: [block 0 | block 1 | ...].
+  std::vector<int> cols;  // variables index of each column group
+  int total_cols = 0;
+  for (size_t i = 0; i < num_blocks; ++i) {
+    if (jacobian_ptrs[i] == nullptr) continue;
+    cols.push_back(index.at(residual.blocks[i]));
+    total_cols += variables[static_cast<size_t>(cols.back())].tangent;
+  }
+  RowMajorMatrix jacobian(num_residuals, total_cols);
+  int col = 0;
+  for (size_t i = 0, k = 0; i < num_blocks; ++i) {
+    if (jacobian_ptrs[i] == nullptr) continue;
+    const Variable& v = variables[static_cast<size_t>(cols[k++])];
+    if (v.manifold == nullptr) {
+      jacobian.middleCols(col, v.tangent) = ambient_jacobians[i];
+    } else {
+      jacobian.middleCols(col, v.tangent) = ambient_jacobians[i] * v.plus_jacobian;
+    }
+    col += v.tangent;
+  }
+  if (!jacobian.allFinite()) {
+    MCVO_LOG(kWarning, "marginalisation: a residual block has a non-finite Jacobian; left out");
+    return;
+  }
+  if (residual.loss != nullptr) ApplyLossCorrection(*residual.loss, &r, &jacobian);
+  // Blocks to drop that share a residual block are coupled in Hmm.
+  int first_drop = -1;
+  for (int vi : cols) {
+    if (vi >= static_cast<int>(num_drop)) continue;
+    if (first_drop < 0) {
+      first_drop = vi;
+    } else {
+      Unite(drop_parent, first_drop, vi);
+    }
+  }
+  int col_i = 0;
+  for (int vi : cols) {
+    const Variable& a = variables[static_cast<size_t>(vi)];
+    int col_j = 0;
+    for (int vj : cols) {
+      const Variable& c = variables[static_cast<size_t>(vj)];
+      h->block(a.offset, c.offset, a.tangent, c.tangent) +=
+          jacobian.middleCols(col_i, a.tangent).transpose() * jacobian.middleCols(col_j, c.tangent);
+      col_j += c.tangent;
+    }
+    b->segment(a.offset, a.tangent) -= jacobian.middleCols(col_i, a.tangent).transpose() * r;
+    col_i += a.tangent;
+  }
+}
+
+// The Schur complement of H, b onto the kept blocks (the variables after the
+// first num_drop). Hmm is block diagonal over the groups of coupled blocks
+// to drop (each inverse depth alone, when only landmarks are dropped): its
+// pseudo-inverse, and the complement, are taken group by group, in the order
+// of the groups' first block.
+void SchurComplement(const Eigen::MatrixXd& h, const Eigen::VectorXd& b,
+                     const std::vector<Variable>& variables, size_t num_drop, std::vector<int>* drop_parent,
+                     int dim_keep, double eps, Eigen::MatrixXd* h_schur_out, Eigen::VectorXd* b_schur_out) {
+  Eigen::MatrixXd& h_schur = *h_schur_out;
+  Eigen::VectorXd& b_schur = *b_schur_out;
+  h_schur = h.bottomRightCorner(dim_keep, dim_keep);
+  b_schur = b.tail(dim_keep);
+  std::map<int, std::vector<int>> groups;  // root -> tangent indices
+  for (size_t i = 0; i < num_drop; ++i) {
+    std::vector<int>& group = groups[Find(drop_parent, static_cast<int>(i))];
+    for (int k = 0; k < variables[i].tangent; ++k) group.push_back(variables[i].offset + k);
+  }
+  for (const auto& [root, group] : groups) {
+    const Eigen::Index n = static_cast<Eigen::Index>(group.size());
+    Eigen::MatrixXd hmm(n, n), hkm(dim_keep, n);
+    Eigen::VectorXd bm(n);
+    for (Eigen::Index a = 0; a < n; ++a) {
+      for (Eigen::Index c = 0; c < n; ++c)
+        hmm(a, c) = h(group[static_cast<size_t>(a)], group[static_cast<size_t>(c)]);
+      hkm.col(a) = h.col(group[static_cast<size_t>(a)]).tail(dim_keep);
+      bm[a] = b[group[static_cast<size_t>(a)]];
+    }
+    const Eigen::MatrixXd hkm_hmm_inv = hkm * SymmetricPseudoInverse(hmm, eps);
+    h_schur -= hkm_hmm_inv * hkm.transpose();
+    b_schur -= hkm_hmm_inv * bm;
+  }
+  h_schur = 0.5 * (h_schur + h_schur.transpose()).eval();
+}
+
 }  // namespace
 
 struct Marginalizer::Impl {
-  struct Residual {
-    const ceres::CostFunction* cost = nullptr;
-    const ceres::LossFunction* loss = nullptr;
-    std::vector<double*> blocks;
-  };
+  using Residual = ResidualBlock;
   std::vector<Residual> residuals;
   std::map<const double*, const ceres::Manifold*> manifolds;
   std::set<const double*> constant;
@@ -162,12 +280,6 @@ std::unique_ptr<MarginalizationPrior> Marginalizer::Marginalize(const std::vecto
 
   // Variables: blocks to drop (in `drop` order, those touched), then kept
   // blocks by first appearance; constant blocks are not variables.
-  struct Variable {
-    double* block = nullptr;
-    int ambient = 0, tangent = 0, offset = 0;
-    const ceres::Manifold* manifold = nullptr;
-    RowMajorMatrix plus_jacobian;  // at the current value (manifold blocks)
-  };
   std::vector<Variable> variables;
   std::map<const double*, int> index;  // block -> variables index
   auto add_variable = [&](double* block, int ambient) {
@@ -215,98 +327,13 @@ std::unique_ptr<MarginalizationPrior> Marginalizer::Marginalize(const std::vecto
   Eigen::MatrixXd h = Eigen::MatrixXd::Zero(dim, dim);
   Eigen::VectorXd b = Eigen::VectorXd::Zero(dim);
   for (const Impl::Residual* residual : selected) {
-    const int num_residuals = residual->cost->num_residuals();
-    const size_t num_blocks = residual->blocks.size();
-    std::vector<RowMajorMatrix> ambient_jacobians(num_blocks);
-    std::vector<double*> jacobian_ptrs(num_blocks, nullptr);
-    std::vector<const double*> parameters(residual->blocks.begin(), residual->blocks.end());
-    for (size_t i = 0; i < num_blocks; ++i) {
-      if (index.count(residual->blocks[i]) == 0) continue;  // constant
-      ambient_jacobians[i].resize(num_residuals, residual->cost->parameter_block_sizes()[i]);
-      jacobian_ptrs[i] = ambient_jacobians[i].data();
-    }
-    Eigen::VectorXd r(num_residuals);
-    if (!residual->cost->Evaluate(parameters.data(), r.data(), jacobian_ptrs.data()) || !r.allFinite()) {
-      MCVO_LOG(kWarning, "marginalisation: a residual block failed to evaluate; left out");
-      continue;
-    }
-    // Tangent Jacobians, side by side: [block 0 | block 1 | ...].
-    std::vector<int> cols;  // variables index of each column group
-    int total_cols = 0;
-    for (size_t i = 0; i < num_blocks; ++i) {
-      if (jacobian_ptrs[i] == nullptr) continue;
-      cols.push_back(index.at(residual->blocks[i]));
-      total_cols += variables[static_cast<size_t>(cols.back())].tangent;
-    }
-    RowMajorMatrix jacobian(num_residuals, total_cols);
-    int col = 0;
-    for (size_t i = 0, k = 0; i < num_blocks; ++i) {
-      if (jacobian_ptrs[i] == nullptr) continue;
-      const Variable& v = variables[static_cast<size_t>(cols[k++])];
-      if (v.manifold == nullptr) {
-        jacobian.middleCols(col, v.tangent) = ambient_jacobians[i];
-      } else {
-        jacobian.middleCols(col, v.tangent) = ambient_jacobians[i] * v.plus_jacobian;
-      }
-      col += v.tangent;
-    }
-    if (!jacobian.allFinite()) {
-      MCVO_LOG(kWarning, "marginalisation: a residual block has a non-finite Jacobian; left out");
-      continue;
-    }
-    if (residual->loss != nullptr) ApplyLossCorrection(*residual->loss, &r, &jacobian);
-    // Blocks to drop that share a residual block are coupled in Hmm.
-    int first_drop = -1;
-    for (int vi : cols) {
-      if (vi >= static_cast<int>(num_drop)) continue;
-      if (first_drop < 0) {
-        first_drop = vi;
-      } else {
-        Unite(&drop_parent, first_drop, vi);
-      }
-    }
-    int col_i = 0;
-    for (int vi : cols) {
-      const Variable& a = variables[static_cast<size_t>(vi)];
-      int col_j = 0;
-      for (int vj : cols) {
-        const Variable& c = variables[static_cast<size_t>(vj)];
-        h.block(a.offset, c.offset, a.tangent, c.tangent) +=
-            jacobian.middleCols(col_i, a.tangent).transpose() * jacobian.middleCols(col_j, c.tangent);
-        col_j += c.tangent;
-      }
-      b.segment(a.offset, a.tangent) -= jacobian.middleCols(col_i, a.tangent).transpose() * r;
-      col_i += a.tangent;
-    }
+    AddToNormalEquations(*residual, variables, index, num_drop, &drop_parent, &h, &b);
   }
 
   // Schur complement onto the kept blocks.
-  Eigen::MatrixXd h_schur = h.bottomRightCorner(dim_keep, dim_keep);
-  Eigen::VectorXd b_schur = b.tail(dim_keep);
-  // Hmm is block diagonal over the groups of coupled blocks to drop (each
-  // inverse depth alone, when only landmarks are dropped): its
-  // pseudo-inverse, and the Schur complement, are taken group by group, in
-  // the order of the groups' first block.
-  std::map<int, std::vector<int>> groups;  // root -> tangent indices
-  for (size_t i = 0; i < num_drop; ++i) {
-    std::vector<int>& group = groups[Find(&drop_parent, static_cast<int>(i))];
-    for (int k = 0; k < variables[i].tangent; ++k) group.push_back(variables[i].offset + k);
-  }
-  for (const auto& [root, group] : groups) {
-    const Eigen::Index n = static_cast<Eigen::Index>(group.size());
-    Eigen::MatrixXd hmm(n, n), hkm(dim_keep, n);
-    Eigen::VectorXd bm(n);
-    for (Eigen::Index a = 0; a < n; ++a) {
-      for (Eigen::Index c = 0; c < n; ++c)
-        hmm(a, c) = h(group[static_cast<size_t>(a)], group[static_cast<size_t>(c)]);
-      hkm.col(a) = h.col(group[static_cast<size_t>(a)]).tail(dim_keep);
-      bm[a] = b[group[static_cast<size_t>(a)]];
-    }
-    const Eigen::MatrixXd hkm_hmm_inv = hkm * SymmetricPseudoInverse(hmm, eps);
-    h_schur -= hkm_hmm_inv * hkm.transpose();
-    b_schur -= hkm_hmm_inv * bm;
-  }
-  h_schur = 0.5 * (h_schur + h_schur.transpose()).eval();
+  Eigen::MatrixXd h_schur;
+  Eigen::VectorXd b_schur;
+  SchurComplement(h, b, variables, num_drop, &drop_parent, dim_keep, eps, &h_schur, &b_schur);
 
   // H* = J*^T J*, J*^T r0 = -b*.
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(h_schur);
