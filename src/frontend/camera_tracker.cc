@@ -78,6 +78,16 @@ struct CameraTracker::Impl {
   }
 
   CameraFrameResult Track(const cv::Mat& input);
+  // The steps of Track: LK forward (and backward) from the previous frame;
+  // `kept`: indices into prev_features, `kept_pixels` their new pixels.
+  void TrackLk(const std::vector<cv::Mat>& pyramid, std::vector<int>* kept,
+               std::vector<cv::Point2f>* kept_pixels, CameraFrameStats* stats) const;
+  // RANSAC on bearings removes the tracks inconsistent with one relative
+  // pose; a pixel the model cannot unproject counts as lost by LK.
+  void RejectByRansac(std::vector<int>* kept, std::vector<cv::Point2f>* kept_pixels,
+                      CameraFrameStats* stats) const;
+  // Detection and selection of new features up to max_features.
+  void AddNewFeatures(const cv::Mat& image, CameraFrameResult* result) const;
 };
 
 CameraTracker::CameraTracker(const Camera& camera, const cv::Mat& mask, const FrontendOptions& options,
@@ -136,10 +146,47 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   cv::buildOpticalFlowPyramid(image, pyramid, window, options.lk.pyramid_levels);
   stats.seconds_pyramid = SecondsSince(start);
 
-  // 2. LK forward, backward.
+  // 2. LK forward, backward; 3. RANSAC on bearings.
   start = Clock::now();
   std::vector<int> kept;  // indices into prev_features
   std::vector<cv::Point2f> kept_pixels;
+  TrackLk(pyramid, &kept, &kept_pixels, &stats);
+  stats.seconds_lk = SecondsSince(start);
+  start = Clock::now();
+  RejectByRansac(&kept, &kept_pixels, &stats);
+  stats.seconds_ransac = SecondsSince(start);
+
+  for (size_t k = 0; k < kept.size(); ++k) {
+    TrackedFeature f = prev_features[static_cast<size_t>(kept[k])];
+    f.pixel = Eigen::Vector2f(kept_pixels[k].x, kept_pixels[k].y);
+    ++f.track_length;
+    result.features.push_back(f);
+  }
+  result.descriptors = SelectRows(prev_descriptors, kept);
+  stats.tracked = static_cast<int>(kept.size());
+
+  // 4. Detection and selection of new features.
+  AddNewFeatures(image, &result);
+
+  double length_sum = 0.0;
+  std::vector<Eigen::Vector2f> pixels;
+  for (const TrackedFeature& f : result.features) {
+    length_sum += f.track_length;
+    pixels.push_back(f.pixel);
+  }
+  if (!result.features.empty())
+    stats.mean_track_length = length_sum / static_cast<double>(result.features.size());
+  stats.sfd = ComputeSfd(pixels, camera.width, camera.height);
+
+  prev_pyramid = std::move(pyramid);
+  prev_features = result.features;
+  prev_descriptors = result.descriptors;
+  return result;
+}
+
+void CameraTracker::Impl::TrackLk(const std::vector<cv::Mat>& pyramid, std::vector<int>* kept,
+                                  std::vector<cv::Point2f>* kept_pixels, CameraFrameStats* stats) const {
+  const cv::Size window(options.lk.window_px, options.lk.window_px);
   if (!prev_features.empty() && !prev_pyramid.empty()) {
     std::vector<cv::Point2f> prev_pts, cur_pts;
     for (const TrackedFeature& f : prev_features) prev_pts.emplace_back(f.pixel.x(), f.pixel.y());
@@ -158,33 +205,33 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
     const double fb2 = options.lk.forward_backward_threshold_px * options.lk.forward_backward_threshold_px;
     for (size_t i = 0; i < prev_pts.size(); ++i) {
       if (!status[i] || !Usable(cur_pts[i])) {
-        ++stats.lost_lk;
+        ++stats->lost_lk;
         continue;
       }
       if (options.lk.forward_backward_check) {
         const cv::Point2f d = back_pts[i] - prev_pts[i];
         if (!back_status[i] || static_cast<double>(d.dot(d)) > fb2) {
-          ++stats.lost_forward_backward;
+          ++stats->lost_forward_backward;
           continue;
         }
       }
-      kept.push_back(static_cast<int>(i));
-      kept_pixels.push_back(cur_pts[i]);
+      kept->push_back(static_cast<int>(i));
+      kept_pixels->push_back(cur_pts[i]);
     }
   }
-  stats.seconds_lk = SecondsSince(start);
+}
 
-  // 3. RANSAC on bearings. A pixel the model cannot unproject counts as lost by LK.
-  start = Clock::now();
+void CameraTracker::Impl::RejectByRansac(std::vector<int>* kept, std::vector<cv::Point2f>* kept_pixels,
+                                         CameraFrameStats* stats) const {
   {
     std::vector<Eigen::Vector3d> bearings_prev, bearings_cur;
     std::vector<int> with_bearing;  // positions in kept
-    for (size_t k = 0; k < kept.size(); ++k) {
-      const Eigen::Vector2f& p = prev_features[static_cast<size_t>(kept[k])].pixel;
+    for (size_t k = 0; k < kept->size(); ++k) {
+      const Eigen::Vector2f& p = prev_features[static_cast<size_t>((*kept)[k])].pixel;
       const auto b_prev = camera.Unproject(p.cast<double>());
-      const auto b_cur = camera.Unproject(Eigen::Vector2d(kept_pixels[k].x, kept_pixels[k].y));
+      const auto b_cur = camera.Unproject(Eigen::Vector2d((*kept_pixels)[k].x, (*kept_pixels)[k].y));
       if (!b_prev || !b_cur) {
-        ++stats.lost_lk;
+        ++stats->lost_lk;
         continue;
       }
       bearings_prev.push_back(*b_prev);
@@ -198,37 +245,28 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
     std::vector<cv::Point2f> survivor_pixels;
     for (size_t j = 0; j < with_bearing.size(); ++j) {
       if (!inliers[j]) {
-        ++stats.ransac_outliers;
+        ++stats->ransac_outliers;
         continue;
       }
-      ++stats.ransac_inliers;
-      survivors.push_back(kept[static_cast<size_t>(with_bearing[j])]);
-      survivor_pixels.push_back(kept_pixels[static_cast<size_t>(with_bearing[j])]);
+      ++stats->ransac_inliers;
+      survivors.push_back((*kept)[static_cast<size_t>(with_bearing[j])]);
+      survivor_pixels.push_back((*kept_pixels)[static_cast<size_t>(with_bearing[j])]);
     }
-    kept.swap(survivors);
-    kept_pixels.swap(survivor_pixels);
+    kept->swap(survivors);
+    kept_pixels->swap(survivor_pixels);
   }
-  stats.seconds_ransac = SecondsSince(start);
+}
 
-  for (size_t k = 0; k < kept.size(); ++k) {
-    TrackedFeature f = prev_features[static_cast<size_t>(kept[k])];
-    f.pixel = Eigen::Vector2f(kept_pixels[k].x, kept_pixels[k].y);
-    ++f.track_length;
-    result.features.push_back(f);
-  }
-  result.descriptors = SelectRows(prev_descriptors, kept);
-  stats.tracked = static_cast<int>(kept.size());
-
-  // 4. Detection and selection of new features.
-  const int wanted = max_features - stats.tracked;
+void CameraTracker::Impl::AddNewFeatures(const cv::Mat& image, CameraFrameResult* result) const {
+  const int wanted = max_features - result->stats.tracked;
   if (wanted > 0) {
-    start = Clock::now();
+    auto start = Clock::now();
     const Detections detections =
         detector->Detect(image, mask, std::max(1, options.candidate_factor) * wanted, border_px);
-    stats.seconds_detect = SecondsSince(start);
+    result->stats.seconds_detect = SecondsSince(start);
     start = Clock::now();
     SelectionInput selection;
-    for (const TrackedFeature& f : result.features) selection.tracked.push_back(f.pixel);
+    for (const TrackedFeature& f : result->features) selection.tracked.push_back(f.pixel);
     selection.candidates = &detections;
     selection.image_width = camera.width;
     selection.image_height = camera.height;
@@ -240,34 +278,19 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
       TrackedFeature f;
       f.pixel = detections.pixels[static_cast<size_t>(index)];
       f.score = detections.scores[static_cast<size_t>(index)];
-      result.features.push_back(f);
+      result->features.push_back(f);
     }
     if (!detections.descriptors.empty() && !chosen.empty()) {
       const cv::Mat new_rows = SelectRows(detections.descriptors, chosen);
-      if (result.descriptors.empty()) {
-        result.descriptors = new_rows;
+      if (result->descriptors.empty()) {
+        result->descriptors = new_rows;
       } else {
-        cv::vconcat(result.descriptors, new_rows, result.descriptors);
+        cv::vconcat(result->descriptors, new_rows, result->descriptors);
       }
     }
-    stats.new_features = static_cast<int>(chosen.size());
-    stats.seconds_select = SecondsSince(start);
+    result->stats.new_features = static_cast<int>(chosen.size());
+    result->stats.seconds_select = SecondsSince(start);
   }
-
-  double length_sum = 0.0;
-  std::vector<Eigen::Vector2f> pixels;
-  for (const TrackedFeature& f : result.features) {
-    length_sum += f.track_length;
-    pixels.push_back(f.pixel);
-  }
-  if (!result.features.empty())
-    stats.mean_track_length = length_sum / static_cast<double>(result.features.size());
-  stats.sfd = ComputeSfd(pixels, camera.width, camera.height);
-
-  prev_pyramid = std::move(pyramid);
-  prev_features = result.features;
-  prev_descriptors = result.descriptors;
-  return result;
 }
 
 void CameraTracker::AssignNewIds(uint64_t* next_id, CameraFrameResult* result) {
