@@ -1,6 +1,5 @@
 #include "mcvo/pipeline/regress.h"
 
-
 #include <algorithm>
 #include <cmath>
 #include <optional>
