@@ -18,6 +18,7 @@ namespace {
 int RunSynth(int argc, const char* const* argv) {
   synth::SynthOptions options;
   std::string rig_path, out_dir, blackout;
+  std::string stops;
   int seed = 0;
   bool exposure = false, vignetting = false;
   ArgParser args(
@@ -46,6 +47,10 @@ int RunSynth(int argc, const char* const* argv) {
                  "shutter time for motion blur, seconds");
   args.AddString("blackout", &blackout, "CAM:FIRST:COUNT",
                  "camera (name, index or 'all') renders black for COUNT frames from frame FIRST");
+  args.AddDouble("stand", &options.stops.stand_s,
+                 "seconds the rig stands still at the start before it pulls away (4 s ramp)");
+  args.AddString("stop", &stops, "AT:DUR[,..]",
+                 "the rig slows down at AT s, stands DUR s and pulls away (4 s ramps); comma-separated");
   args.AddInt("threads", &options.render.threads,
               "render threads (0: all cores); output is the same for any");
   args.AddFlag("force", &options.force, "replace a non-empty output folder");
@@ -62,6 +67,9 @@ int RunSynth(int argc, const char* const* argv) {
   options.render.seed = options.seed;
   options.render.effects.exposure_changes = exposure;
   options.render.effects.vignetting = vignetting;
+  if (!stops.empty()) {
+    for (std::string_view stop : SplitFields(stops, ',')) options.stops.stops.push_back(synth::ParseStop(std::string(stop)));
+  }
   if (!blackout.empty()) {
     const std::vector<std::string_view> parts = SplitFields(blackout, ':');
     const auto first = parts.size() == 3 ? ParseInt64(parts[1]) : std::nullopt;

@@ -90,6 +90,11 @@ std::string MetaJson(const SynthOptions& options, const std::string& scene_name,
                                                                                     : rig.cameras[e.blackout_camera].name},
       {"blackout_first_frame", e.blackout_first_frame},
       {"blackout_num_frames", e.blackout_num_frames}};
+  if (!options.stops.Empty()) {
+    nlohmann::ordered_json stops = nlohmann::ordered_json::array();
+    for (const Stop& stop : options.stops.stops) stops.push_back({{"at_s", stop.at_s}, {"duration_s", stop.duration_s}});
+    j["standing"] = {{"stand_s", options.stops.stand_s}, {"ramp_s", options.stops.ramp_s}, {"stops", stops}};
+  }
   nlohmann::ordered_json cameras = nlohmann::ordered_json::array();
   for (const Camera& camera : rig.cameras) cameras.push_back(camera.name);
   j["cameras"] = cameras;
@@ -151,6 +156,7 @@ void SynthOptions::Check() const {
     throw UsageError(StrCat("frame_rate_hz: must be in (0, 1000], got ", FormatDouble(frame_rate_hz)));
   }
   render.Check();
+  stops.Check();
 }
 
 SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path& out_dir,
@@ -180,8 +186,15 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
                             FormatDouble(options.laps)));
   }
   const double laps = options.laps > 0.0 ? options.laps : 1.0;
-  const double frames_in_laps =
-      std::floor(laps * static_cast<double>(trajectory.DurationNs()) / static_cast<double>(period_ns));
+  // Standing adds to the time of a lap: the stand, each stop, half of each ramp.
+  double standing_ns = 0.0;
+  if (!options.stops.Empty()) {
+    const StopPlan& plan = options.stops;
+    standing_ns = 1e9 * (plan.stand_s > 0.0 ? plan.stand_s + 0.5 * plan.ramp_s : 0.0);
+    for (const Stop& stop : plan.stops) standing_ns += 1e9 * (stop.duration_s + plan.ramp_s);
+  }
+  const double frames_in_laps = std::floor(
+      (laps * static_cast<double>(trajectory.DurationNs()) + standing_ns) / static_cast<double>(period_ns));
   if (options.frames == 0 && frames_in_laps > 1e7) {
     throw UsageError(StrCat("laps: ", FormatDouble(laps), " laps are ", FormatDouble(frames_in_laps),
                             " frames, more than 1e7"));
@@ -219,6 +232,11 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
   for (const Camera& camera : rig.cameras)
     summary.megapixels_per_frame += camera.width * camera.height * 1e-6;
 
+  // Route time of a sequence instant (stops.h); the identity without stops.
+  const auto world_from_rig = [&](int64_t t_ns) {
+    if (options.stops.Empty()) return trajectory.WorldFromRig(t_ns);
+    return trajectory.WorldFromRig(std::llround(options.stops.RouteSeconds(static_cast<double>(t_ns) * 1e-9) * 1e9));
+  };
   Trajectory ground_truth;
   ground_truth.has_time = true;
   const auto start = std::chrono::steady_clock::now();
@@ -228,7 +246,7 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
     row.t_ns = options.first_t_ns + t_rel_ns;
     for (int c = 0; c < rig.NumCameras(); ++c) {
       const cv::Mat image = RenderImage(
-          world.scene, rig, c, [&](int64_t t_ns) { return trajectory.WorldFromRig(t_ns); }, t_rel_ns, frame,
+          world.scene, rig, c, world_from_rig, t_rel_ns, frame,
           options.render);
       const std::string relative = "images/" + rig.cameras[c].name + "/" + FrameFileName(frame);
       WritePng(staging.path() / relative, image);
@@ -238,7 +256,7 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
     StampedPose pose;
     pose.t_ns = options.first_t_ns + t_rel_ns;
     pose.frame_index = frame;
-    pose.world_from_body = trajectory.WorldFromRig(t_rel_ns);
+    pose.world_from_body = world_from_rig(t_rel_ns);
     ground_truth.poses.push_back(pose);
     if (progress) progress(frame + 1, frames);
   }

@@ -27,6 +27,7 @@
 
 #include "mcvo/camera/camera.h"
 #include "mcvo/synth/renderer.h"
+#include "mcvo/synth/stops.h"
 
 namespace mcvo::synth {
 
@@ -57,6 +58,7 @@ struct SynthOptions {
   double frame_rate_hz = 10.0;
   int64_t first_t_ns = 1000000000;  // time stamp of frame 0
   bool force = false;               // replace a non-empty output folder
+  StopPlan stops;                   // standing at the start, stops on the way (stops.h)
   RenderOptions render;
 
   // Throws UsageError naming the bad field.
