@@ -825,9 +825,10 @@ struct Estimator::Impl {
     scale_filter.Start(init_sigma, last_pose->translation);
     entry.scale_sigma = init_sigma;
     entry.note = StrCat("scale from ",
-                        init.source == ScaleSource::kRigRotation   ? "rig rotation"
-                        : init.source == ScaleSource::kCrossCamera ? "cross-camera baseline"
-                                                                   : "rig rotation and cross-camera baseline",
+                        init.source == ScaleSource::kRigRotation    ? "rig rotation"
+                        : init.source == ScaleSource::kCrossCamera  ? "cross-camera baseline"
+                        : init.source == ScaleSource::kOverlapStart ? "overlapping views without motion"
+                                                                    : "rig rotation and cross-camera baseline",
                         "; principal camera ", rig.cameras[init.principal_camera].name, "; ",
                         init.cross_camera_matches, " cross-camera matches");
     scale_log.push_back(std::move(entry));

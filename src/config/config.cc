@@ -91,6 +91,17 @@ void Visit(V& v, RigConsistencyOptions* o) {
 }
 
 template <typename V>
+void Visit(V& v, OverlapStartOptions* o) {
+  v.Field("enable", &o->enable);
+  v.Field("after_failed_windows", &o->after_failed_windows);
+  v.Field("min_points", &o->min_points);
+  v.Field("min_angle_deg", &o->min_angle_deg);
+  v.Field("max_depth_m", &o->max_depth_m);
+  v.Field("min_frame_inliers", &o->min_frame_inliers);
+  v.Field("max_relative_scale_sigma", &o->max_relative_scale_sigma);
+}
+
+template <typename V>
 void Visit(V& v, InitializerOptions* o) {
   v.Field("window_size", &o->window_size);
   v.Field("min_correspondences", &o->min_correspondences);
@@ -107,6 +118,7 @@ void Visit(V& v, InitializerOptions* o) {
   v.Field("max_rig_ba_iterations", &o->max_rig_ba_iterations);
   v.Section("sfm", &o->sfm);
   v.Section("consistency", &o->consistency);
+  v.Section("overlap_start", &o->overlap_start);
 }
 
 template <typename V>

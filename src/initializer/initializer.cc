@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 
 #include "bearing_residual.h"
+#include "mcvo/initializer/overlap_start.h"
 #include "mcvo/initializer/rig_window_ba.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/parallel.h"
@@ -113,6 +114,7 @@ struct Initializer::Impl {
     reason = StrCat("window 0/", options.window_size);
     spent = false;
     attempts = 0;
+    failed_windows = 0;
   }
 
   int NumCameras() const { return rig.NumCameras(); }
@@ -137,14 +139,35 @@ struct Initializer::Impl {
     }
     int anchor = -1;
     std::vector<bool> passing;
-    if (!Trigger(&anchor, &passing)) return std::nullopt;
-    std::optional<InitializationResult> result = Initialise(anchor, passing);
-    if (!result) {
-      ++attempts;
-      return std::nullopt;
+    std::optional<InitializationResult> result;
+    if (Trigger(&anchor, &passing)) {
+      result = Initialise(anchor, passing);
+      if (!result) ++attempts;
     }
+    if (!result) result = TryOverlapStart();
+    if (!result) return std::nullopt;
     spent = true;
     reason = "initialised";
+    return result;
+  }
+
+  // After the motion initialisation of a full window failed (reason set):
+  // the overlap start, once enabled and after_failed_windows have failed.
+  // On failure its reason follows the motion initialisation's.
+  std::optional<InitializationResult> TryOverlapStart() {
+    ++failed_windows;
+    const OverlapStartOptions& o = options.overlap_start;
+    if (!o.enable || NumCameras() < 2 || failed_windows <= o.after_failed_windows) return std::nullopt;
+    bool any_cross = false;
+    for (const RigFrameObservations& frame : window) any_cross = any_cross || !frame.cross_camera.empty();
+    if (!any_cross) return std::nullopt;  // no overlapping views: nothing to say
+    std::string why;
+    std::optional<InitializationResult> result = InitialiseFromOverlap(rig, window, options, &why);
+    if (!result) {
+      reason = StrCat(reason, "; ", why);
+      return std::nullopt;
+    }
+    result->attempts = attempts;
     return result;
   }
 
@@ -723,6 +746,7 @@ struct Initializer::Impl {
   std::string reason;
   bool spent = false;
   int attempts = 0;
+  int failed_windows = 0;  // full windows whose motion initialisation failed, since Reset()
   double smallest_rejected_sigma = std::numeric_limits<double>::infinity();
 };
 

@@ -44,6 +44,12 @@ void InitializerOptions::Check() const {
   CheckAtLeast("/initializer/consistency/min_disagreement", consistency.min_disagreement, 0.0);
   CheckPositive("/initializer/consistency/max_shape_residual", consistency.max_shape_residual);
   CheckPositive("/initializer/sfm/ba_huber_px", sfm.ba_huber_px);
+  CheckAtLeast("/initializer/overlap_start/after_failed_windows", overlap_start.after_failed_windows, 0);
+  CheckAtLeast("/initializer/overlap_start/min_points", overlap_start.min_points, 6);
+  CheckInRange("/initializer/overlap_start/min_angle_deg", overlap_start.min_angle_deg, 0.0, 90.0);
+  CheckPositive("/initializer/overlap_start/max_depth_m", overlap_start.max_depth_m);
+  CheckAtLeast("/initializer/overlap_start/min_frame_inliers", overlap_start.min_frame_inliers, 6);
+  CheckPositive("/initializer/overlap_start/max_relative_scale_sigma", overlap_start.max_relative_scale_sigma);
 }
 
 }  // namespace mcvo

@@ -182,18 +182,29 @@ OdometryOutput OdometryStage::Finish() {
   FinishEstimator(estimator_.get(), &out_);
   const double sigma = estimator_->SmallestRejectedScaleSigma();
   const double fallback = options_.initializer.max_relative_scale_sigma_fallback;
-  if (out_.poses.empty() && !unposed_.empty() && std::isfinite(sigma) && sigma <= fallback &&
-      sigma > options_.initializer.max_relative_scale_sigma) {
-    // Fallback: the same frames again with the relaxed bound; the first
-    // window that meets it (and every other gate) initialises, so the
-    // forward segment is as long as it can be and the back end's scale
-    // corrections, fused by their uncertainty, get every later turn.
-    MCVO_LOG(kWarning, "run: no frame posed with the initializer's scale bound of ",
-             FormatFixed(100.0 * options_.initializer.max_relative_scale_sigma, 2), " % (best window ",
-             FormatFixed(100.0 * sigma, 2), " %); running again with the fallback bound of ",
-             FormatFixed(100.0 * fallback, 2), " % (initializer.max_relative_scale_sigma_fallback)");
+  const bool relax_sigma =
+      std::isfinite(sigma) && sigma <= fallback && sigma > options_.initializer.max_relative_scale_sigma;
+  const OverlapStartOptions& overlap = options_.initializer.overlap_start;
+  const bool overlap_at_once = overlap.enable && overlap.after_failed_windows > 0 && rig_.NumCameras() >= 2;
+  if (out_.poses.empty() && !unposed_.empty() && (relax_sigma || overlap_at_once)) {
+    // Fallback: the same frames again with the relaxed bound, and the
+    // overlap start at the first failed window; the first window that meets
+    // them (and every other gate) initialises, so the forward segment is as
+    // long as it can be and the back end's scale corrections, fused by their
+    // uncertainty, get every later turn.
     InitializerOptions relaxed = options_.initializer;
-    relaxed.max_relative_scale_sigma = fallback;
+    if (relax_sigma) {
+      MCVO_LOG(kWarning, "run: no frame posed with the initializer's scale bound of ",
+               FormatFixed(100.0 * options_.initializer.max_relative_scale_sigma, 2), " % (best window ",
+               FormatFixed(100.0 * sigma, 2), " %); running again with the fallback bound of ",
+               FormatFixed(100.0 * fallback, 2), " % (initializer.max_relative_scale_sigma_fallback)");
+      relaxed.max_relative_scale_sigma = fallback;
+    }
+    if (overlap_at_once) {
+      MCVO_LOG(kInfo, "run: no frame posed; running again with the overlap start at the first failed window ",
+               "(initializer.overlap_start.after_failed_windows ", overlap.after_failed_windows, " -> 0)");
+      relaxed.overlap_start.after_failed_windows = 0;
+    }
     Estimator estimator(rig_, relaxed, options_.backend, threads_);
     reverse_ = MakeReversePass(rig_, options_, relaxed, threads_);
     OdometryOutput rerun;
@@ -206,12 +217,15 @@ OdometryOutput OdometryStage::Finish() {
     rerun.totals.backend += out_.totals.backend;
     for (ScaleLogEntry& entry : rerun.scale_log) {
       if (entry.event != "init") continue;
-      entry.note += StrCat("; offline fallback: no window of the sequence met the scale bound of ",
-                           FormatFixed(100.0 * options_.initializer.max_relative_scale_sigma, 2), " %, this one met ",
-                           FormatFixed(100.0 * fallback, 2), " %");
+      if (relax_sigma) {
+        entry.note += StrCat("; offline fallback: no window of the sequence met the scale bound of ",
+                             FormatFixed(100.0 * options_.initializer.max_relative_scale_sigma, 2),
+                             " %, this one met ", FormatFixed(100.0 * fallback, 2), " %");
+      }
+      if (overlap_at_once) entry.note += "; offline fallback: overlap start at the first failed window";
     }
     out_ = std::move(rerun);
-    out_.fallback_sigma = fallback;
+    if (relax_sigma) out_.fallback_sigma = fallback;
   }
   unposed_.clear();
   if (reverse_) {

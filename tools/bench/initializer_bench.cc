@@ -74,6 +74,8 @@ std::string SourceName(ScaleSource source) {
       return "cross";
     case ScaleSource::kCombined:
       return "combined";
+    case ScaleSource::kOverlapStart:
+      return "overlap";
   }
   return "?";
 }

@@ -56,6 +56,12 @@
 //     rig's. A window with a camera that fails waits (the reason names the
 //     camera and the test), so a broken rig solution is never accepted.
 //  7. Result: metric rig poses of the window frames l..r, metric landmarks.
+//  8. Overlap start (overlap_start.h): when steps 1-6 fail for a full window
+//     (after options.overlap_start.after_failed_windows such windows) and
+//     the window has cross-camera observations, the window is initialised
+//     from the overlapping views alone, without motion (source
+//     kOverlapStart, l = the oldest window frame). Its failure reason is
+//     appended to the motion initialisation's.
 //
 // World frame of the result: the rig frame at the anchor frame l.
 // Deterministic at any thread count.
@@ -77,6 +83,24 @@
 #include "mcvo/initializer/rig_scale.h"
 
 namespace mcvo {
+
+// Initialisation from overlapping views without motion (overlap_start.h).
+struct OverlapStartOptions {
+  bool enable = true;
+  // Full windows whose motion initialisation must fail before the overlap
+  // start is tried (0: at the first full window that fails). The motion
+  // initialisation is preferred: its scale is better determined (0.5 % against
+  // 2 %), and offline the frames before it are posed by the reverse pass. So
+  // the overlap start steps in only when the rig has stood or crept for this
+  // many frames; and when a whole sequence posed no frame, `mcvo run` runs it
+  // again with 0 (odometry_stage.cc).
+  int after_failed_windows = 100;
+  int min_points = 30;           // cross-camera landmarks, inliers, seen in the newest frame
+  double min_angle_deg = 0.5;    // smallest triangulation angle of a cross-camera landmark
+  double max_depth_m = 200.0;    // farthest cross-camera landmark kept
+  int min_frame_inliers = 20;    // observations a window frame's pose must fit
+  double max_relative_scale_sigma = 0.02;
+};
 
 struct InitializerOptions {
   int window_size = 10;
@@ -108,6 +132,7 @@ struct InitializerOptions {
   CameraSfmOptions sfm;
   // Step 6: every used camera must agree with the rig solution (rig_consistency.h).
   RigConsistencyOptions consistency;
+  OverlapStartOptions overlap_start;
 
   // Throws InputError naming the field by its config path ("/initializer/...").
   void Check() const;
@@ -116,8 +141,9 @@ struct InitializerOptions {
 // How the scale was determined: from the rig rotation alone (no usable
 // cross-camera observations), from cross-camera observations (the rig
 // rotation alone would not have passed the tests), or from both (each alone
-// would have).
-enum class ScaleSource { kRigRotation, kCrossCamera, kCombined };
+// would have), or from overlapping views alone, without motion (the overlap
+// start, overlap_start.h).
+enum class ScaleSource { kRigRotation, kCrossCamera, kCombined, kOverlapStart };
 
 struct InitializationResult {
   // Window frames l..r (r = newest), metric, world = rig at l.
