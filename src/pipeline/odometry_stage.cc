@@ -24,10 +24,13 @@ std::unique_ptr<ReversePass> MakeReversePass(const Rig& rig, const PipelineOptio
   reverse_options.overlap_frames = options.backend.reverse_pass_overlap_frames;
   // The reverse run's own scale is replaced by the forward one when it is
   // aligned (a similarity), so its initializer needs the scale only well
-  // enough to track: it may use the fallback bound.
+  // enough to track: it may use the fallback bound, and the overlap start at
+  // the first failed window (the frames before a forward overlap start are
+  // those the rig stood or crept through).
   InitializerOptions reverse_init = init_options;
   reverse_init.max_relative_scale_sigma =
       std::max(init_options.max_relative_scale_sigma, options.initializer.max_relative_scale_sigma_fallback);
+  reverse_init.overlap_start.after_failed_windows = 0;
   return std::make_unique<ReversePass>(rig, reverse_init, options.backend, reverse_options, threads);
 }
 
