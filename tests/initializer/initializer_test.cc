@@ -61,13 +61,7 @@ double ScaleError(const InitializationResult& result, const SyntheticRigTracks& 
 
 SyntheticRigTracks Tracks(const Rig& rig, const std::vector<Rigid3d>& world_from_rig, double noise_px,
                           uint64_t seed, bool cross_camera) {
-  LandmarkOptions landmark_options;
-  landmark_options.seed = seed;
-  TrackOptions options;
-  options.seed = seed;
-  options.pixel_noise_px = noise_px;
-  options.cross_camera = cross_camera;
-  return MakeRigTracks(rig, world_from_rig, LandmarksAroundPath(world_from_rig, landmark_options), options);
+  return testing::NoisyRigTracks(rig, world_from_rig, noise_px, seed, cross_camera);
 }
 
 // Worst errors of the result's rig poses against the truth (world = rig at l).

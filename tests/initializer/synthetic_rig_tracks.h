@@ -448,4 +448,17 @@ inline Rigid3d CamAnchorFromCam(const SyntheticRigTracks& tracks, const Camera& 
   return camera.cam_from_rig * AnchorFromRig(tracks, anchor, t) * camera.cam_from_rig.Inverse();
 }
 
+// Tracks of landmarks around the path with the same seed for both, Gaussian
+// pixel noise, with or without cross-camera observations.
+inline SyntheticRigTracks NoisyRigTracks(const Rig& rig, const std::vector<Rigid3d>& world_from_rig,
+                                         double noise_px, uint64_t seed, bool cross_camera) {
+  LandmarkOptions landmark_options;
+  landmark_options.seed = seed;
+  TrackOptions options;
+  options.seed = seed;
+  options.pixel_noise_px = noise_px;
+  options.cross_camera = cross_camera;
+  return MakeRigTracks(rig, world_from_rig, LandmarksAroundPath(world_from_rig, landmark_options), options);
+}
+
 }  // namespace mcvo::testing
