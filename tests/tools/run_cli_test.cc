@@ -28,12 +28,7 @@ using mcvo::test::RunMcvo;
 
 // This process's scratch folder, emptied on first use.
 fs::path Root() {
-  static const fs::path dir = [] {
-    const fs::path root = fs::path(::testing::TempDir()) / ("mcvo_run_cli_test_" + std::to_string(::getpid()));
-    fs::remove_all(root);
-    fs::create_directories(root);
-    return root;
-  }();
+  static const fs::path dir = mcvo::test::ProcessScratch("mcvo_run_cli_test");
   return dir;
 }
 

@@ -3,9 +3,14 @@
 
 #include <sys/wait.h>
 
+#include <unistd.h>
+
 #include <array>
 #include <cstdio>
+#include <filesystem>
 #include <string>
+
+#include <gtest/gtest.h>
 
 namespace mcvo::test {
 
@@ -34,6 +39,17 @@ inline Result RunMcvo(const std::string& args) {
   const int status = pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+// A scratch folder of this test process, `<TempDir>/<prefix>_<pid>`, emptied
+// and created on the first call for each prefix (call it from one function
+// per file, which keeps it in a static).
+inline std::filesystem::path ProcessScratch(const std::string& prefix) {
+  const std::filesystem::path root =
+      std::filesystem::path(::testing::TempDir()) / (prefix + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(root);
+  std::filesystem::create_directories(root);
+  return root;
 }
 
 }  // namespace mcvo::test

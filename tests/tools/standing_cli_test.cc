@@ -23,13 +23,7 @@ using mcvo::test::Quote;
 using mcvo::test::RunMcvo;
 
 fs::path Root() {
-  static const fs::path dir = [] {
-    const fs::path root =
-        fs::path(::testing::TempDir()) / ("mcvo_standing_cli_test_" + std::to_string(::getpid()));
-    fs::remove_all(root);
-    fs::create_directories(root);
-    return root;
-  }();
+  static const fs::path dir = mcvo::test::ProcessScratch("mcvo_standing_cli_test");
   return dir;
 }
 
