@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "command.h"
 #include "mcvo/eval/evaluate.h"
 #include "mcvo/eval/report.h"
@@ -14,6 +16,7 @@
 #include "mcvo/io/trajectory_io.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/file.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::tools {
@@ -32,6 +35,38 @@ std::vector<double> ParseList(const std::string& option, const std::string& text
   return values;
 }
 
+// What the run.json beside an estimate says about it (`mcvo run` output):
+// its scale is arbitrary (one camera), and the rig origin its poses are of
+// was moved (a one-camera rig's: to the camera centre), in the rig frame.
+// A run.json that is not there or cannot be read says nothing.
+struct RunFacts {
+  bool scale_arbitrary = false;
+  std::optional<Eigen::Vector3d> origin_in_rig_m;
+};
+
+RunFacts ReadRunFacts(const std::filesystem::path& est_path) {
+  RunFacts facts;
+  const std::filesystem::path run_json = est_path.parent_path() / "run.json";
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(run_json, ec)) return facts;
+  try {
+    const nlohmann::json run = nlohmann::json::parse(ReadFileToString(run_json));
+    if (!run.is_object() || !run.contains("result") || !run["result"].is_object()) return facts;
+    const nlohmann::json& result = run["result"];
+    facts.scale_arbitrary = result.contains("scale") && result["scale"] == "arbitrary";
+    if (result.contains("trajectory_origin_in_rig_m")) {
+      const nlohmann::json& c = result["trajectory_origin_in_rig_m"];
+      if (c.is_array() && c.size() == 3 && c[0].is_number() && c[1].is_number() && c[2].is_number()) {
+        const Eigen::Vector3d origin(c[0].get<double>(), c[1].get<double>(), c[2].get<double>());
+        if (origin.allFinite()) facts.origin_in_rig_m = origin;
+      }
+    }
+  } catch (const std::exception&) {
+    return RunFacts();
+  }
+  return facts;
+}
+
 // std::nullopt for "auto" (detect from the file).
 std::optional<TrajectoryFormat> ParseFormatOption(const std::string& option, const std::string& name) {
   if (name == "auto") return std::nullopt;
@@ -44,7 +79,7 @@ std::optional<TrajectoryFormat> ParseFormatOption(const std::string& option, con
 }
 
 int RunEval(int argc, const char* const* argv) {
-  std::string gt_path, est_path, gt_format = "auto", est_format = "auto", align = "se3", associate = "auto";
+  std::string gt_path, est_path, gt_format = "auto", est_format = "auto", align = "auto", associate = "auto";
   std::string rpe_lengths, rpe_percents, gt_times, est_times, out_dir;
   int align_frames = 0;
   double max_dt = AssociationOptions().max_dt_s;
@@ -56,7 +91,10 @@ int RunEval(int argc, const char* const* argv) {
   args.AddString("est", &est_path, "FILE", "estimated trajectory", true);
   args.AddString("gt-format", &gt_format, "F", "auto|tum|kitti|kitti-indexed|euroc");
   args.AddString("est-format", &est_format, "F", "auto|tum|kitti|kitti-indexed|euroc");
-  args.AddString("align", &align, "MODE", "se3|sim3|posyaw|none");
+  args.AddString("align", &align, "MODE",
+                 "auto|se3|sim3|posyaw|none (auto: se3, but for an `mcvo run` trajectory whose run.json "
+                 "says \"scale\": \"arbitrary\" (one camera) sim3, the ground truth moved to the "
+                 "camera centre the run's poses are of)");
   args.AddInt("align-frames", &align_frames, "align on the first N matched poses (0: all)");
   args.AddString("associate", &associate, "MODE",
                  "time|index (auto: time when both trajectories have time stamps, else index)");
@@ -78,8 +116,10 @@ int RunEval(int argc, const char* const* argv) {
 
   // Every command-line check before any file is read.
   EvalOptions options;
-  const std::optional<AlignmentMode> align_mode = AlignmentModeFromName(align);
-  if (!align_mode) throw UsageError(StrCat("--align: expected se3, sim3, posyaw or none, got '", align, "'"));
+  const std::optional<AlignmentMode> align_mode =
+      align == "auto" ? std::optional<AlignmentMode>(AlignmentMode::kSe3) : AlignmentModeFromName(align);
+  if (!align_mode)
+    throw UsageError(StrCat("--align: expected auto, se3, sim3, posyaw or none, got '", align, "'"));
   options.align = *align_mode;
   if (align_frames < 0)
     throw UsageError(StrCat("--align-frames: expected 0 (all) or a count, got ", align_frames));
@@ -108,7 +148,23 @@ int RunEval(int argc, const char* const* argv) {
       gt_format_given ? *gt_format_given : DetectTrajectoryFormat(gt_path);
   const TrajectoryFormat est_file_format =
       est_format_given ? *est_format_given : DetectTrajectoryFormat(est_path);
+  const RunFacts facts = align == "auto" ? ReadRunFacts(est_path) : RunFacts();
+  const std::string run_json = (std::filesystem::path(est_path).parent_path() / "run.json").string();
+  if (facts.scale_arbitrary) {
+    options.align = AlignmentMode::kSim3;
+    std::cerr << "mcvo eval: --align auto: sim3 (" << run_json << ": the scale is arbitrary, one camera)\n";
+  }
   Trajectory gt = ReadTrajectory(gt_path, gt_file_format);
+  if (facts.origin_in_rig_m) {
+    // The estimate is of a point other than the rig origin: the ground truth moves there too.
+    const Eigen::Vector3d& c = *facts.origin_in_rig_m;
+    for (StampedPose& pose : gt.poses) {
+      pose.world_from_body = pose.world_from_body * Rigid3d(Eigen::Quaterniond::Identity(), c);
+    }
+    std::cerr << "mcvo eval: --align auto: ground truth moved to the estimate's origin, (" << FormatDouble(c.x())
+              << ", " << FormatDouble(c.y()) << ", " << FormatDouble(c.z()) << ") m in the rig frame (" << run_json
+              << ")\n";
+  }
   Trajectory est = ReadTrajectory(est_path, est_file_format);
   if (!gt_times.empty()) ApplyTimesFile(gt_times, &gt);
   if (!est_times.empty()) ApplyTimesFile(est_times, &est);

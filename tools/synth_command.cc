@@ -26,7 +26,7 @@ int RunSynth(int argc, const char* const* argv) {
       "Renders a synthetic multi-camera sequence with exact ground truth into the generic rig dataset\n"
       "format (docs/dataset-format.md): rig.json, frames.csv, PNG images, groundtruth.tum, the 3-D scene.");
   args.AddString("preset", &options.preset, "NAME",
-                 "kitti360 | kitti360-3cam | stereo | multicam6 | irregular5 (rig + default scene)");
+                 "kitti360 | kitti360-3cam | stereo | mono | multicam6 | irregular5 (rig + default scene)");
   args.AddString("rig", &rig_path, "FILE", "a rig.json instead of a preset (needs --scene)");
   args.AddString("scene", &options.scene, "NAME",
                  "urban | urban_block | urban_repeated | indoor | open (default: the preset's)");

@@ -38,6 +38,10 @@ constexpr double kMaxLandmarkDistanceM = 1000.0;
 constexpr int kScaleCorrectionIterations = 20;
 constexpr double kMinCorrectionTravelM = 2.0;
 constexpr size_t kMinCameraDepthRatios = 10;
+// Monocular scale gauge (estimator.h "Monocular"): the std of the anchored
+// distance, relative to it, and the least distance worth anchoring.
+constexpr double kScaleAnchorRelativeSigma = 1e-3;
+constexpr double kMinScaleAnchorDistance = 1e-9;
 
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
@@ -103,6 +107,7 @@ struct Estimator::Impl {
   }
 
   const Rig rig;
+  const bool monocular = rig.NumCameras() == 1;  // estimator.h "Monocular"
   const InitializerOptions init_options;
   const BackendOptions options;
   const int threads;
@@ -448,6 +453,25 @@ struct Estimator::Impl {
     return problem;
   }
 
+  // Monocular gauge: the keyframe (not the oldest, not the newest frame
+  // unless nothing else is there) farthest from the oldest keyframe; null
+  // when every frame is where the oldest is (pure rotation).
+  Frame* ScaleAnchorFrame() const {
+    if (window.size() < 2) return nullptr;
+    const Eigen::Vector3d origin = window.front()->WorldFromRig().translation;
+    Frame* best = nullptr;
+    double best_distance = 0.0;
+    const size_t last = window.size() > 2 ? window.size() - 1 : window.size();
+    for (size_t k = 1; k < last; ++k) {
+      const double d = (window[k]->WorldFromRig().translation - origin).norm();
+      if (d > best_distance) {
+        best_distance = d;
+        best = window[k];
+      }
+    }
+    return best_distance > kMinScaleAnchorDistance ? best : nullptr;
+  }
+
   bool IsExtrinsicConstant(int camera) const { return !options.refine_extrinsics || camera == 0; }
 
   void SolveWindow(FrameEstimate* estimate) {
@@ -470,6 +494,17 @@ struct Estimator::Impl {
     }
     // Gauge: the oldest keyframe is held fixed (the prior carries what was learnt before it).
     ceres_problem.SetParameterBlockConstant(window.front()->pose.data());
+    // Monocular: the scale gauge too (estimator.h "Monocular").
+    std::unique_ptr<ceres::CostFunction> scale_anchor;
+    if (monocular) {
+      Frame* reference = ScaleAnchorFrame();
+      if (reference != nullptr) {
+        const Eigen::Vector3d origin = window.front()->WorldFromRig().translation;
+        const double distance = (reference->WorldFromRig().translation - origin).norm();
+        scale_anchor.reset(NewDistanceAnchorCost(origin, distance, kScaleAnchorRelativeSigma * distance));
+        ceres_problem.AddResidualBlock(scale_anchor.get(), nullptr, reference->pose.data());
+      }
+    }
     for (int c = 0; c < rig.NumCameras(); ++c) {
       if (IsExtrinsicConstant(c)) ceres_problem.SetParameterBlockConstant(extrinsics[c].data());
     }
@@ -824,13 +859,20 @@ struct Estimator::Impl {
         init.relative_scale_sigma > 0.0 ? init.relative_scale_sigma : init_options.max_relative_scale_sigma;
     scale_filter.Start(init_sigma, last_pose->translation);
     entry.scale_sigma = init_sigma;
-    entry.note = StrCat("scale from ",
-                        init.source == ScaleSource::kRigRotation    ? "rig rotation"
-                        : init.source == ScaleSource::kCrossCamera  ? "cross-camera baseline"
-                        : init.source == ScaleSource::kOverlapStart ? "overlapping views without motion"
-                                                                    : "rig rotation and cross-camera baseline",
-                        "; principal camera ", rig.cameras[init.principal_camera].name, "; ",
-                        init.cross_camera_matches, " cross-camera matches");
+    if (init.source == ScaleSource::kArbitrary) {
+      entry.scale_sigma = 0.0;
+      entry.note = StrCat("arbitrary scale (one camera, ", rig.cameras[init.principal_camera].name,
+                          "): unit = its travel over the initialisation window, frames ",
+                          init.frame_index.front(), "-", init.frame_index.back());
+    } else {
+      entry.note = StrCat("scale from ",
+                          init.source == ScaleSource::kRigRotation    ? "rig rotation"
+                          : init.source == ScaleSource::kCrossCamera  ? "cross-camera baseline"
+                          : init.source == ScaleSource::kOverlapStart ? "overlapping views without motion"
+                                                                      : "rig rotation and cross-camera baseline",
+                          "; principal camera ", rig.cameras[init.principal_camera].name, "; ",
+                          init.cross_camera_matches, " cross-camera matches");
+    }
     scale_log.push_back(std::move(entry));
     init_buffer.clear();
     state = EstimatorState::kTracking;
@@ -965,7 +1007,8 @@ struct Estimator::Impl {
     }
     // Scale correction once due, in the first window that turns enough for
     // the rig constraint to hold the scale (on a straight it cannot).
-    if (options.scale_correction_period > 0 && solves_since_correction >= options.scale_correction_period &&
+    if (!monocular && options.scale_correction_period > 0 &&
+        solves_since_correction >= options.scale_correction_period &&
         WindowRotationDeg() >= options.scale_correction_min_rotation_deg) {
       ScaleCorrection(*raw, estimate);
     }

@@ -485,6 +485,39 @@ ceres::CostFunction* NewReprojectionFactorSameFrameAutoDiff(const Eigen::Vector3
       new SameFrameFunctor{BearingResidualCore(anchor_bearing, observed_bearing, sqrt_information)});
 }
 
+namespace {
+
+class DistanceAnchorCost final : public ceres::SizedCostFunction<1, kPoseParamSize> {
+ public:
+  DistanceAnchorCost(const Eigen::Vector3d& origin, double distance, double sigma)
+      : origin_(origin), distance_(distance), inverse_sigma_(1.0 / sigma) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const Eigen::Vector3d d = Eigen::Map<const Eigen::Vector3d>(parameters[0]) - origin_;
+    const double norm = d.norm();
+    residuals[0] = (norm - distance_) * inverse_sigma_;
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 1, kPoseParamSize>> j(jacobians[0]);
+      j.setZero();
+      if (norm > 0.0) j.head<3>() = (inverse_sigma_ / norm) * d.transpose();
+    }
+    return true;
+  }
+
+ private:
+  const Eigen::Vector3d origin_;
+  const double distance_;
+  const double inverse_sigma_;
+};
+
+}  // namespace
+
+ceres::CostFunction* NewDistanceAnchorCost(const Eigen::Vector3d& origin, double distance, double sigma) {
+  MCVO_CHECK_MSG(sigma > 0.0 && distance > 0.0 && origin.allFinite(), "distance anchor: distance ", distance,
+                 ", sigma ", sigma);
+  return new DistanceAnchorCost(origin, distance, sigma);
+}
+
 Eigen::Vector2d ReprojectionResidual(const Rigid3d& world_from_rig_anchor, const Rigid3d& world_from_rig_obs,
                                      const Rigid3d& rig_from_cam_anchor, const Rigid3d& rig_from_cam_obs,
                                      const Eigen::Vector3d& anchor_bearing, double inverse_depth,

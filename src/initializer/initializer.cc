@@ -100,6 +100,10 @@ struct Initializer::Impl {
   }
 
   int NumCameras() const { return rig.NumCameras(); }
+  // A one-camera rig: monocular, its scale arbitrary (initializer.h "Monocular").
+  bool Monocular() const { return rig.NumCameras() == 1; }
+  // The fewest cameras that must pass (a one-camera rig has one).
+  int MinCamerasPassing() const { return std::min(options.min_cameras_passing, NumCameras()); }
 
   std::optional<InitializationResult> AddFrame(const RigFrameObservations& frame) {
     MCVO_CHECK_MSG(static_cast<int>(frame.cameras.size()) == NumCameras(), "frame ", frame.frame_index,
@@ -187,7 +191,7 @@ struct Initializer::Impl {
         count += s.passes ? 1 : 0;
         if (required[static_cast<size_t>(c)] && !s.passes) required_pass = false;
       }
-      if (required_pass && count >= options.min_cameras_passing) {
+      if (required_pass && count >= MinCamerasPassing()) {
         *anchor = l;
         passing->resize(stats.size());
         for (size_t c = 0; c < stats.size(); ++c) (*passing)[c] = stats[c].passes;
@@ -211,7 +215,7 @@ struct Initializer::Impl {
     }
     const std::string where =
         StrCat(" (best anchor frame ", window[static_cast<size_t>(best_l)].frame_index, ": ", best_count, "/",
-               NumCameras(), " cameras pass, ", options.min_cameras_passing, " needed)");
+               NumCameras(), " cameras pass, ", MinCamerasPassing(), " needed)");
     if (failing < 0) {
       reason = StrCat("too few cameras pass", where);
       return false;
@@ -424,10 +428,11 @@ struct Initializer::Impl {
       }
       required_failed = required_failed || is_required;
     }
-    if (required_failed || static_cast<int>(used.size()) < options.min_cameras_passing) {
+    if (required_failed || static_cast<int>(used.size()) < MinCamerasPassing()) {
       reason = failure;
       return std::nullopt;
     }
+    if (Monocular()) return InitialiseMonocular(anchor, used, sfm_of_used);
 
     // Each camera's SfM in the rig frame at l (A): q = r_c t_c(t), R = r_c R_c(t).
     std::vector<CameraWindowTrack> tracks(used.size());
@@ -463,6 +468,22 @@ struct Initializer::Impl {
       left_out += StrCat(left_out.empty() ? "" : "; ", reason);
       DropCamera(inconsistent, &used, &sfm_of_used, &tracks, &measurements);
     }
+  }
+
+  // A one-camera rig: the camera's SfM is the window, its unit the camera's
+  // travel from l to r (camera_sfm.h); no scale solve, no rig BA (with one
+  // camera it would refine the same observations again).
+  std::optional<InitializationResult> InitialiseMonocular(int anchor, const std::vector<int>& used,
+                                                          const std::vector<CameraSfmResult>& sfm_of_used) {
+    InitializationResult result;
+    result.source = ScaleSource::kArbitrary;
+    result.rig_scale.scales = {1.0};
+    result.rig_scale.solution = {1.0};
+    result.rig_scale.reason = "one camera: the scale is arbitrary";
+    size_t inconsistent = used.size();
+    if (!SolveMetricWindow(anchor, used, sfm_of_used, &result, &inconsistent)) return std::nullopt;
+    result.attempts = attempts;
+    return result;
   }
 
   // Steps 5 to 7 for the cameras `used` and the scale solve in *result:
@@ -523,7 +544,9 @@ struct Initializer::Impl {
         if (points.emplace(id, rig_from_cam * (scales[k] * point)).second) point_camera.emplace(id, used[k]);
       }
     }
-    if (options.max_rig_ba_iterations > 0) {
+    if (Monocular()) {
+      result.relative_scale_sigma = 0.0;  // nothing to measure: the unit is chosen
+    } else if (options.max_rig_ba_iterations > 0) {
       std::vector<Rigid3d> cam_from_rig;
       for (const Camera& camera : rig.cameras) cam_from_rig.push_back(camera.cam_from_rig);
       std::vector<RigWindowObservation> observations;

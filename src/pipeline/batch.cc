@@ -150,6 +150,7 @@ void ReadRunNumbers(const fs::path& run_dir, BatchRunResult* result) {
   if (r.contains("warning") && r["warning"].is_string()) result->warning = r["warning"].get<std::string>();
   result->evaluated = number(r, "ate_rmse_m", &result->ate_rmse_m);
   number(r, "ate_percent_of_path", &result->ate_percent_of_path);
+  result->scale_arbitrary = r.contains("scale") && r["scale"] == "arbitrary";
   number(r, "scale_error_percent", &result->scale_error_percent);
   if (run->contains("timing")) number((*run)["timing"], "frames_per_second", &result->frames_per_second);
   // RPE: run.json's result when it carries it, else the run's eval/eval.json.
@@ -463,7 +464,7 @@ std::optional<std::string> RunOutOfDateReason(const fs::path& run_dir, const Bat
       return "output " + item.key() + " was changed";
     }
   }
-  const DatasetIndex index = OpenDataset(RunDataset(spec, options));
+  const DatasetIndex index = OpenRunDataset(RunDataset(spec, options));
   const int dataset_frames = static_cast<int>(index.frames.size());
   const int frames = spec.max_frames > 0 ? std::min(spec.max_frames, dataset_frames) : dataset_frames;
   const Json& dataset = run->contains("dataset") ? (*run)["dataset"] : Json();
@@ -542,7 +543,8 @@ std::string BatchSummaryCsv(const BatchReport& report) {
     for (double value : {r.rpe_translation_percent, r.rpe_rotation_deg_per_100m}) {
       csv += "," + (r.has_rpe ? FormatDouble(value) : "");
     }
-    csv += "," + (r.evaluated ? FormatDouble(r.scale_error_percent) : "");
+    csv += "," + (r.evaluated ? (r.scale_arbitrary ? std::string("arbitrary") : FormatDouble(r.scale_error_percent))
+                              : std::string());
     csv += "," + (r.has_result ? FormatFixed(r.frames_per_second, 2) : "");
     csv += "\n";
   }
@@ -567,7 +569,8 @@ std::string BatchSummaryMarkdown(const BatchReport& report) {
     md += r.has_rpe ? FormatFixed(r.rpe_translation_percent, 3) + " | " +
                           FormatFixed(r.rpe_rotation_deg_per_100m, 3) + " | "
                     : std::string(" |  | ");
-    md += r.evaluated ? FormatFixed(r.scale_error_percent, 3) + " | " : std::string(" | ");
+    md += r.evaluated ? (r.scale_arbitrary ? std::string("arbitrary") : FormatFixed(r.scale_error_percent, 3)) + " | "
+                      : std::string(" | ");
     md += r.has_result ? FormatFixed(r.frames_per_second, 2) + " | " : std::string(" | ");
     md += MarkdownCell(r.warning) + " |\n";
   }

@@ -47,7 +47,33 @@ void CheckOutputFolder(const std::filesystem::path& out_dir, bool force) {
   }
 }
 
+// A one-camera rig runs monocular, at an arbitrary scale (estimator.h
+// "Monocular"), where the camera's lever arm to the rig origin, in metres,
+// cannot be applied: the rig origin is moved to the camera's centre (its
+// orientation kept), and the ground truth with it, so that the trajectory,
+// the map and the evaluation are all of the camera's centre.
+DatasetIndex MonocularIndex(DatasetIndex index) {
+  Camera& camera = index.rig.cameras.front();
+  const Eigen::Vector3d centre = camera.cam_from_rig.Inverse().translation;  // in the rig frame
+  if (centre.norm() == 0.0) return index;
+  index.log.push_back(StrCat("one camera: monocular at an arbitrary scale; the trajectory is of ", camera.name,
+                             "'s centre (its lever arm of ", FormatFixed(centre.norm(), 3),
+                             " m to the rig origin needs the metric scale), the ground truth moved with it"));
+  camera.cam_from_rig.translation.setZero();
+  index.origin_moved_to = centre;
+  if (index.ground_truth) {
+    const Rigid3d rig_from_centre(Eigen::Quaterniond::Identity(), centre);
+    for (StampedPose& pose : index.ground_truth->poses) pose.world_from_body = pose.world_from_body * rig_from_centre;
+  }
+  return index;
+}
+
 }  // namespace
+
+DatasetIndex OpenRunDataset(const DatasetOptions& options) {
+  DatasetIndex index = OpenDataset(options);
+  return index.rig.NumCameras() == 1 ? MonocularIndex(std::move(index)) : index;
+}
 
 std::filesystem::path RunVocabularyPath(const PipelineOptions& options) {
   if (!options.loop.enabled) return {};
@@ -78,17 +104,14 @@ std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetInde
   return inputs;
 }
 
-std::string RunPosingWarning(int frames, int posed, int cameras,
-                             const std::vector<std::string>& unposed_reasons) {
+std::string RunPosingWarning(int frames, int posed, const std::vector<std::string>& unposed_reasons) {
   if (frames <= 0 || 2 * posed >= frames) return {};
   const std::string head =
       StrCat(posed == 0 ? "no frame posed" : StrCat("only ", posed, " of ", frames, " frames posed"), " (",
              FormatFixed(100.0 * posed / frames, 1), " %): ");
-  if (cameras == 1) return head + "one camera: the metric scale is not observable (no monocular mode yet)";
   // Each waiting reason in a category a user can act on; the most frequent wins.
   auto category = [](const std::string& reason) -> std::string {
     auto has = [&](const char* text) { return reason.find(text) != std::string::npos; };
-    if (has("one camera")) return "one camera: the metric scale is not observable";
     if (has("parallax")) return "the rig never moved enough for the initializer (parallax too small)";
     if (has("pure translation") || has("not observable") || has("poorly observable"))
       return "the metric scale was never observable (the rig did not turn and no cameras overlap)";
@@ -123,7 +146,8 @@ RunSummary RunPipeline(const RunRequest& request) {
   CheckOutputFolder(request.out_dir, request.force);
   DatasetOptions dataset_options = request.dataset;
   if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
-  const DatasetIndex index = OpenDataset(dataset_options);
+  const DatasetIndex index = OpenRunDataset(dataset_options);
+  const bool monocular = index.rig.NumCameras() == 1;
   const Rig& rig = index.rig;
   const int threads = ResolveThreads(options.runtime.threads);
   for (const std::string& name : options.initializer.required_cameras) {
@@ -170,6 +194,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   }
   progress.Finish();
   pipeline_internal::OdometryOutput odometry = odometry_stage.Finish();
+  summary.scale_arbitrary = monocular;
   // After a tracking loss: the new segment located in the old one's map.
   pipeline_internal::RelocalisationSummary relocalisation;
   if (vocabulary) {
@@ -205,7 +230,7 @@ RunSummary RunPipeline(const RunRequest& request) {
       unposed_reasons.push_back(record.estimate.waiting_reason);
     }
   }
-  summary.warning = RunPosingWarning(summary.frames, summary.posed_frames, rig.NumCameras(), unposed_reasons);
+  summary.warning = RunPosingWarning(summary.frames, summary.posed_frames, unposed_reasons);
 
   // Outputs, then the finished folder moved into place.
   pipeline_internal::RunOutputsInput outputs;
@@ -231,11 +256,16 @@ RunSummary RunPipeline(const RunRequest& request) {
   MCVO_LOG(kInfo, "run: ", summary.frames, " frames (", summary.posed_frames, " posed, ", summary.keyframes,
            " keyframes, ", summary.segments, " segment(s)) in ", FormatFixed(summary.seconds, 2), " s (",
            FormatFixed(summary.frames_per_second, 2), " fps)");
-  if (summary.evaluated) {
+  if (summary.evaluated && summary.scale_arbitrary) {
+    MCVO_LOG(kInfo, "run: ATE rmse ", FormatFixed(summary.ate_rmse_m, 3), " m (",
+             FormatFixed(summary.ate_percent_of_path, 3), " % of ", FormatFixed(summary.gt_path_length_m, 1),
+             " m), arbitrary scale: 1 unit = ", FormatFixed(summary.unit_m, 4), " m (",
+             EnumToName(kAlignmentModeNames, summary.alignment), " alignment)");
+  } else if (summary.evaluated) {
     MCVO_LOG(kInfo, "run: ATE rmse ", FormatFixed(summary.ate_rmse_m, 3), " m (",
              FormatFixed(summary.ate_percent_of_path, 3), " % of ", FormatFixed(summary.gt_path_length_m, 1),
              " m), scale error ", FormatFixed(summary.scale_error_percent, 3), " % (",
-             EnumToName(kAlignmentModeNames, options.eval.align), " alignment)");
+             EnumToName(kAlignmentModeNames, summary.alignment), " alignment)");
   }
   if (!summary.warning.empty()) MCVO_LOG(kWarning, "run: ", summary.warning);
   MCVO_LOG(kInfo, "run: wrote ", absolute_out.string());

@@ -88,11 +88,23 @@ Evaluations Evaluate(const RunOutputsInput& in, const Trajectory& trajectory, co
                      bool loops_applied, const std::filesystem::path& dir, RunSummary* summary) {
   Evaluations out;
   const DatasetIndex& index = *in.index;
-  const EvalOptions& options = in.request->options.eval;
+  EvalOptions options = in.request->options.eval;
+  // An arbitrary scale: a rigid alignment would measure the unit, not the
+  // odometry; a similarity aligns it (and says so).
+  if (summary->scale_arbitrary && (options.align == AlignmentMode::kSe3 || options.align == AlignmentMode::kPosYaw)) {
+    MCVO_LOG(kInfo, "run: evaluation: one camera, arbitrary scale: sim3 alignment instead of ",
+             AlignmentModeName(options.align));
+    options.align = AlignmentMode::kSim3;
+  }
+  summary->alignment = options.align;
   if (!index.ground_truth || trajectory.poses.size() < MinPosesForAlignment(options.align)) return out;
   try {
     out.final = EvaluateTrajectory(*index.ground_truth, trajectory, options,
                                    (index.root / "groundtruth").string(), "trajectory.tum");
+    const std::string arbitrary_note =
+        "the estimate's scale is arbitrary (one camera, monocular): its size relative to the truth is its "
+        "unit, not an error";
+    if (summary->scale_arbitrary) out.final->notes.push_back(arbitrary_note);
     const EvalResult& result = *out.final;
     CreateDirectories(dir / "eval");
     WriteEvalOutputs(dir / "eval", result);
@@ -102,9 +114,11 @@ Evaluations Evaluate(const RunOutputsInput& in, const Trajectory& trajectory, co
     summary->ate_percent_of_path =
         summary->gt_path_length_m > 0 ? 100.0 * summary->ate_rmse_m / summary->gt_path_length_m : 0.0;
     summary->scale_error_percent = result.scale.scale_error_percent;
+    if (result.scale.available) summary->unit_m = result.scale.sim3_scale;
     if (loops_applied) {
       out.odometry = EvaluateTrajectory(*index.ground_truth, trajectory_vo, options,
                                         (index.root / "groundtruth").string(), "trajectory_vo.tum");
+      if (summary->scale_arbitrary) out.odometry->notes.push_back(arbitrary_note);
       CreateDirectories(dir / "eval_vo");
       WriteEvalOutputs(dir / "eval_vo", *out.odometry);
     }
@@ -199,7 +213,10 @@ void WriteReport(const RunOutputsInput& in, const RunSummary& summary, const Eva
       {"segments", StrCat(summary.segments)},
       {"segments relocalised after a loss",
        StrCat(summary.segments_relocalised, " of ", summary.segments - 1)},
-      {"posed by the reverse pass (scale applied back)", StrCat(in.odometry->reverse_posed.size())}};
+      {"posed by the reverse pass (scale applied back)", StrCat(in.odometry->reverse_posed.size())},
+      {"scale", summary.scale_arbitrary
+                    ? "arbitrary: one camera (monocular); the evaluation aligns with a similarity"
+                    : "metric"}};
   if (!summary.warning.empty()) report.summary_rows.push_back({"warning", summary.warning});
   WriteReports(dir, report);
 }
@@ -234,12 +251,27 @@ Json ResultJson(const RunOutputsInput& in, const RunSummary& summary, const Eval
   result["segments"] = summary.segments;
   result["segments_relocalised"] = summary.segments_relocalised;
   result["frames_posed_by_reverse_pass"] = odometry.reverse_posed.size();
+  // "arbitrary": one camera (estimator.h "Monocular"): positions in a unit of
+  // the initialisation, evaluated with a similarity, no scale error.
+  result["scale"] = summary.scale_arbitrary ? "arbitrary" : "metric";
+  // The trajectory's body when it is not the rig frame: the rig origin moved
+  // (a one-camera rig: to the camera centre), in the dataset's rig frame,
+  // metres; `mcvo eval --align auto` moves the ground truth by it.
+  if (in.index->origin_moved_to) {
+    const Eigen::Vector3d& c = *in.index->origin_moved_to;
+    result["trajectory_origin_in_rig_m"] = Json::array({c.x(), c.y(), c.z()});
+  }
   if (odometry.fallback_sigma > 0.0) result["initializer_fallback_sigma"] = odometry.fallback_sigma;
   if (!summary.warning.empty()) result["warning"] = summary.warning;
   if (summary.evaluated) {
     result["ate_rmse_m"] = summary.ate_rmse_m;
     result["ate_percent_of_path"] = summary.ate_percent_of_path;
-    result["scale_error_percent"] = summary.scale_error_percent;
+    result["alignment"] = std::string(AlignmentModeName(summary.alignment));
+    if (summary.scale_arbitrary) {
+      result["unit_m"] = summary.unit_m;
+    } else {
+      result["scale_error_percent"] = summary.scale_error_percent;
+    }
     result["gt_path_length_m"] = summary.gt_path_length_m;
   }
   result["sparse_map_keyframes"] = in.map->keyframes.size();
@@ -252,7 +284,9 @@ Json ResultJson(const RunOutputsInput& in, const RunSummary& summary, const Eval
     result["loop_closure_applied"] = loops.applied;
     if (loops.applied && evals.odometry) {
       result["ate_rmse_m_before_loop_closure"] = evals.odometry->ate_translation_m.rmse;
-      result["scale_error_percent_before_loop_closure"] = evals.odometry->scale.scale_error_percent;
+      if (!summary.scale_arbitrary) {
+        result["scale_error_percent_before_loop_closure"] = evals.odometry->scale.scale_error_percent;
+      }
     }
   }
   return result;

@@ -112,6 +112,8 @@ const std::vector<SynthPreset>& SynthPresets() {
       {"kitti360-3cam", "kitti360_3cam", "urban",
        "KITTI-360 image_00 + both fisheyes (the paper's 3-camera setup: no stereo overlap; the >180 deg "
        "fisheyes share only their image rims)"},
+      {"mono", "kitti360_mono", "urban",
+       "one camera: KITTI-360 image_00 alone (monocular odometry, arbitrary scale)"},
       {"multicam6", "multicam6", "indoor", "MultiCamData-like: 4 forward + 2 side 720x540 cameras"},
       {"stereo", "kitti360_stereo", "urban", "KITTI-360 rectified stereo pair image_00 + image_01"},
   };

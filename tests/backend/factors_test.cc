@@ -742,5 +742,53 @@ TEST(SmallBundleAdjustment, SameSolutionWithEveryFactorVariant) {
   }
 }
 
+// The monocular scale gauge: zero at the anchored distance, (d - distance) /
+// sigma away from it, its Jacobian the finite difference in translation and
+// zero in rotation; a Ceres solve moves the pose onto the sphere, its
+// rotation untouched.
+TEST(DistanceAnchorCost, ResidualJacobianAndSolve) {
+  const Eigen::Vector3d origin(1.0, -2.0, 0.5);
+  std::unique_ptr<ceres::CostFunction> cost(NewDistanceAnchorCost(origin, 3.0, 0.01));
+  std::array<double, kPoseParamSize> pose{};
+  PoseToParams(Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())),
+                       origin + Eigen::Vector3d(2.0, 2.0, 1.5)),
+               pose.data());
+  double residual = 0.0;
+  std::array<double, kPoseParamSize> jacobian{};
+  const double* parameters[] = {pose.data()};
+  double* jacobians[] = {jacobian.data()};
+  ASSERT_TRUE(cost->Evaluate(parameters, &residual, jacobians));
+  const double d = std::sqrt(2.0 * 2.0 + 2.0 * 2.0 + 1.5 * 1.5);
+  EXPECT_NEAR(residual, (d - 3.0) / 0.01, 1e-9);
+  for (int i = 0; i < kPoseParamSize; ++i) {
+    std::array<double, kPoseParamSize> plus = pose, minus = pose;
+    plus[i] += 1e-6;
+    minus[i] -= 1e-6;
+    double rp = 0.0, rm = 0.0;
+    const double* pp[] = {plus.data()};
+    const double* pm[] = {minus.data()};
+    ASSERT_TRUE(cost->Evaluate(pp, &rp, nullptr));
+    ASSERT_TRUE(cost->Evaluate(pm, &rm, nullptr));
+    EXPECT_NEAR(jacobian[i], (rp - rm) / 2e-6, 1e-4) << "parameter " << i;
+  }
+  // Solve: the pose ends on the sphere of radius 3 (where on it is the
+  // trust region's choice: one residual, three unknowns).
+  std::unique_ptr<ceres::Manifold> manifold(NewPoseManifold());
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  problem.AddParameterBlock(pose.data(), kPoseParamSize, manifold.get());
+  problem.AddResidualBlock(cost.get(), nullptr, pose.data());
+  ceres::Solver::Options options;
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  const Rigid3d solved = PoseFromParams(pose.data());
+  EXPECT_NEAR((solved.translation - origin).norm(), 3.0, 1e-6);
+  EXPECT_LT(solved.rotation.angularDistance(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()))),
+            1e-12);
+}
+
 }  // namespace
 }  // namespace mcvo

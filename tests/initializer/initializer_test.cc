@@ -338,6 +338,44 @@ TEST(Initializer, MissingCameraIsReported) {
       << mono.reason;
 }
 
+// A one-camera rig (its camera at the rig origin, as `mcvo run` places it):
+// monocular, the unit is the camera's travel over the window. The window's
+// poses are the truth divided by that travel; straight and turning, 1 px.
+TEST(Initializer, OneCameraInitialisesAtAnArbitraryScale) {
+  Rig rig = LoadPresetRig("kitti360_stereo");
+  rig.cameras.resize(1);
+  rig.cameras[0].cam_from_rig.translation.setZero();
+  for (const bool turning : {false, true}) {
+    const auto trajectory = turning ? TurningTrajectory(20, 0.6, 3.0) : StraightTrajectory(20, 0.8);
+    const SyntheticRigTracks tracks = Tracks(rig, trajectory, 1.0, 3, /*cross_camera=*/false);
+    const Outcome o = RunInitializer(rig, tracks, InitializerOptions());
+    ASSERT_TRUE(o.result) << o.reason;
+    const InitializationResult& r = *o.result;
+    EXPECT_EQ(r.source, ScaleSource::kArbitrary);
+    EXPECT_EQ(r.principal_camera, 0);
+    EXPECT_EQ(r.relative_scale_sigma, 0.0);
+    ASSERT_EQ(r.camera_used, std::vector<bool>{true});
+    ASSERT_GE(r.frame_index.size(), 2u);
+    EXPECT_GT(r.landmarks.size(), 50u);
+    // The unit: the travel from l to r.
+    EXPECT_NEAR(r.world_from_rig.back().translation.norm(), 1.0, 1e-9);
+    const double travel = AnchorFromRig(tracks, r.anchor_frame_index, r.frame_index.back()).translation.norm();
+    double worst_position = 0.0, worst_rotation_deg = 0.0;
+    for (size_t k = 0; k < r.frame_index.size(); ++k) {
+      const Rigid3d truth = AnchorFromRig(tracks, r.anchor_frame_index, r.frame_index[k]);
+      worst_position =
+          std::max(worst_position, (truth.translation / travel - r.world_from_rig[k].translation).norm());
+      worst_rotation_deg = std::max(
+          worst_rotation_deg, truth.rotation.angularDistance(r.world_from_rig[k].rotation) * 180.0 / M_PI);
+    }
+    std::printf("one camera %s, 1 px: window %d-%d, worst position %.4f of the travel, rotation %.3f deg\n",
+                turning ? "turning" : "straight", r.anchor_frame_index, r.frame_index.back(), worst_position,
+                worst_rotation_deg);
+    EXPECT_LT(worst_position, 0.02);
+    EXPECT_LT(worst_rotation_deg, 0.2);
+  }
+}
+
 TEST(Initializer, BadOptionsThrowNamingTheField) {
   InitializerOptions options;
   options.max_relative_scale_sigma = 0.0;

@@ -76,6 +76,8 @@ std::string SourceName(ScaleSource source) {
       return "combined";
     case ScaleSource::kOverlapStart:
       return "overlap";
+    case ScaleSource::kArbitrary:
+      return "arbitrary";
   }
   return "?";
 }

@@ -37,6 +37,15 @@
 //      depths in the rig BA: the paper's per-camera adjustment). The state
 //      changes; every attempt is logged with the measurement, its std, the
 //      gain and what was applied.
+// Monocular (a one-camera rig): the initialiser's unit is arbitrary
+// (initializer.h), and the window BA has a seventh gauge freedom, the scale,
+// that the marginalisation prior does not hold (it constrains only the
+// window's shape). Each solve therefore keeps the distance from the oldest
+// keyframe to the farthest other keyframe of the window at its value before
+// the solve (one residual, std 0.1 % of that distance): it removes only the
+// scale gauge, as holding the oldest keyframe removes the other six. No
+// scale correction (step 6): there is no metric information to correct with;
+// the scale drifts as monocular odometry does, and the outputs say so.
 // Tracking loss: a camera without image or features simply contributes
 // nothing. When the pose of a frame cannot be found (too few inliers over all
 // cameras), the estimator starts a new segment: it initialises again, and

@@ -124,6 +124,12 @@ ceres::CostFunction* NewReprojectionFactorSameFrameAutoDiff(const Eigen::Vector3
                                                             const Eigen::Vector3d& observed_bearing,
                                                             double sqrt_information);
 
+// Monocular scale gauge (estimator.h "Monocular"): one residual on a pose
+// block, (|t - origin| - distance) / sigma, where t is the block's
+// translation; origin is a fixed point (the oldest keyframe's position).
+// sigma > 0, distance > 0. Analytic Jacobian (zero in the rotation).
+ceres::CostFunction* NewDistanceAnchorCost(const Eigen::Vector3d& origin, double distance, double sigma);
+
 // The residual without Ceres, for tests and for reporting errors (pixels at
 // the focal of sqrt_information when sqrt_information = focal / 1).
 Eigen::Vector2d ReprojectionResidual(const Rigid3d& world_from_rig_anchor, const Rigid3d& world_from_rig_obs,

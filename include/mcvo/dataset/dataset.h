@@ -69,6 +69,10 @@ struct DatasetIndex {
   // Human-readable notes about what the reader did: synchronisation results
   // (frames dropped or marked missing, and why), generated masks, ...
   std::vector<std::string> log;
+  // Where the rig origin was moved, in the dataset's rig frame, when it was
+  // (OpenRunDataset, pipeline/run.h: a one-camera rig's origin moves to the
+  // camera centre); the ground truth above is moved with it.
+  std::optional<Eigen::Vector3d> origin_moved_to;
 };
 
 // Reads and validates the dataset's metadata (no image is decoded). Bad input

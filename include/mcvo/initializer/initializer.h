@@ -63,6 +63,12 @@
 //     kOverlapStart, l = the oldest window frame). Its failure reason is
 //     appended to the motion initialisation's.
 //
+//  Monocular (a one-camera rig): steps 1 and 2 with that camera (it passes
+//  alone), then no scale solve: the window is the camera's SfM, its unit the
+//  camera's travel from l to r (source kArbitrary, relative_scale_sigma 0).
+//  The scale of everything that follows is relative to that unit
+//  (estimator.h "Monocular").
+//
 // World frame of the result: the rig frame at the anchor frame l.
 // Deterministic at any thread count.
 #pragma once
@@ -142,8 +148,9 @@ struct InitializerOptions {
 // cross-camera observations), from cross-camera observations (the rig
 // rotation alone would not have passed the tests), or from both (each alone
 // would have), or from overlapping views alone, without motion (the overlap
-// start, overlap_start.h).
-enum class ScaleSource { kRigRotation, kCrossCamera, kCombined, kOverlapStart };
+// start, overlap_start.h), or not at all: a one-camera rig, whose unit is
+// arbitrary (the camera's travel over the window).
+enum class ScaleSource { kRigRotation, kCrossCamera, kCombined, kOverlapStart, kArbitrary };
 
 struct InitializationResult {
   // Window frames l..r (r = newest), metric, world = rig at l.

@@ -99,6 +99,7 @@ struct BatchRunResult {
   double ate_rmse_m = 0.0;
   double ate_percent_of_path = 0.0;
   double scale_error_percent = 0.0;
+  bool scale_arbitrary = false;  // run.json result "scale": "arbitrary" (one camera): no scale error
   bool has_rpe = false;
   double rpe_translation_percent = 0.0;    // mean over the RPE lengths
   double rpe_rotation_deg_per_100m = 0.0;  // mean over the RPE lengths

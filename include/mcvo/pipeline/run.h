@@ -58,6 +58,13 @@ struct RunSummary {
   double ate_percent_of_path = 0.0;
   double scale_error_percent = 0.0;
   double gt_path_length_m = 0.0;
+  // A one-camera rig: the trajectory's unit is arbitrary (estimator.h
+  // "Monocular"); the evaluation then aligns with a similarity (alignment),
+  // scale_error_percent is not an error, and unit_m is the metres in one
+  // unit (the Sim3 scale).
+  bool scale_arbitrary = false;
+  AlignmentMode alignment = AlignmentMode::kSe3;  // of the evaluation
+  double unit_m = 0.0;
   int loops_accepted = 0;
   // Set when fewer than half of the frames are posed: one line with the
   // reason (RunPosingWarning). Logged, in run.json ("result"/"warning") and
@@ -65,12 +72,16 @@ struct RunSummary {
   std::string warning;
 };
 
-// The warning for a run of a rig of `cameras` cameras that posed `posed` of
-// `frames` frames (empty when at least half are posed), naming the reason:
-// one camera (scale not observable), else the most frequent reason the
-// unposed frames waited for: the rig never moved, never turned without
-// overlapping views, tracking lost, too few features or cameras.
-std::string RunPosingWarning(int frames, int posed, int cameras, const std::vector<std::string>& unposed_reasons);
+// The warning for a run that posed `posed` of
+// `frames` frames (empty when at least half are posed), naming the most
+// frequent reason the unposed frames waited for: the rig never moved, never
+// turned without overlapping views, tracking lost, too few features or cameras.
+std::string RunPosingWarning(int frames, int posed, const std::vector<std::string>& unposed_reasons);
+
+// The dataset as `mcvo run` uses it (OpenDataset; a one-camera rig's origin
+// moved to the camera's centre, the ground truth with it: run.cc
+// MonocularIndex). Its rig is what run.json's input hash covers.
+DatasetIndex OpenRunDataset(const DatasetOptions& options);
 
 // Runs the pipeline. Bad input throws InputError / UsageError naming the file
 // and field; nothing is left at out_dir then.
