@@ -5,6 +5,7 @@
 #include <cmath>
 #include <utility>
 
+#include "mcvo/pipeline/run.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/strings.h"
 
@@ -230,6 +231,7 @@ OdometryOutput OdometryStage::Finish() {
     out_ = std::move(rerun);
     if (relax_sigma) out_.fallback_sigma = fallback;
   }
+  MonocularFallback();
   unposed_.clear();
   if (reverse_) {
     const Clock::time_point start = Clock::now();
@@ -244,6 +246,63 @@ OdometryOutput OdometryStage::Finish() {
   std::stable_sort(out_.scale_log.begin(), out_.scale_log.end(),
                    [](const ScaleLogEntry& a, const ScaleLogEntry& b) { return a.frame_index < b.frame_index; });
   return std::move(out_);
+}
+
+// When nothing was posed because the rig's metric scale was never
+// observable (the most frequent waiting reason): the frames again with the
+// camera that tracked the most features alone, as monocular odometry at an
+// arbitrary scale (estimator.h "Monocular"); kept when it poses anything.
+void OdometryStage::MonocularFallback() {
+  if (!out_.poses.empty() || unposed_.empty() || rig_.NumCameras() < 2 ||
+      !options_.initializer.monocular_fallback) {
+    return;
+  }
+  std::vector<std::string> reasons;
+  std::vector<int64_t> features(static_cast<size_t>(rig_.NumCameras()), 0);
+  for (const FrameRecord& record : out_.records) {
+    reasons.push_back(record.estimate.waiting_reason);
+    for (size_t c = 0; c < features.size() && c < record.estimate.features_per_camera.size(); ++c) {
+      features[c] += record.estimate.features_per_camera[c];
+    }
+  }
+  const std::string why = MostFrequentPosingFailure(reasons);
+  if (why != kScaleNeverObservable) return;
+  const int camera = static_cast<int>(std::max_element(features.begin(), features.end()) - features.begin());
+  Rig mono = rig_;
+  mono.cameras = {rig_.cameras[static_cast<size_t>(camera)]};
+  mono.cameras.front().cam_from_rig.translation.setZero();  // its centre: run.cc MonocularIndex
+  const std::string& name = mono.cameras.front().name;
+  MCVO_LOG(kWarning, "run: no frame posed: ", why, "; running again with ", name,
+           " alone (the camera with the most tracked features), as monocular odometry at an arbitrary scale "
+           "(initializer.monocular_fallback)");
+  Estimator estimator(mono, options_.initializer, options_.backend, threads_);
+  std::unique_ptr<ReversePass> reverse = MakeReversePass(mono, options_, options_.initializer, threads_);
+  OdometryOutput rerun;
+  for (size_t k = 0; k < unposed_.size(); ++k) {
+    const RigFrameObservations& frame = unposed_[k];
+    RigFrameObservations one;
+    one.frame_index = frame.frame_index;
+    one.t_ns = frame.t_ns;
+    one.cameras = {frame.cameras[static_cast<size_t>(camera)]};
+    if (!frame.camera_missing.empty()) one.camera_missing = {frame.camera_missing[static_cast<size_t>(camera)]};
+    Consume(&estimator, reverse.get(), one, unposed_frontend_seconds_[k], &rerun);
+  }
+  FinishEstimator(&estimator, &rerun);
+  if (rerun.poses.empty()) {
+    MCVO_LOG(kWarning, "run: ", name, " alone posed no frame either");
+    return;
+  }
+  rerun.totals.initializer += out_.totals.initializer;
+  rerun.totals.backend += out_.totals.backend;
+  rerun.monocular_camera = camera;
+  rerun.monocular_reason = why;
+  for (ScaleLogEntry& entry : rerun.scale_log) {
+    if (entry.event == "init") {
+      entry.note += StrCat("; offline fallback: ", why, ", so ", name, " alone at an arbitrary scale");
+    }
+  }
+  out_ = std::move(rerun);
+  reverse_ = std::move(reverse);
 }
 
 std::string FrameStatsCsv(const Rig& rig, const OdometryOutput& odometry) {

@@ -49,6 +49,11 @@ struct OdometryOutput {
   double reverse_seconds = 0.0;
   // > 0 when the fallback ran: the relaxed scale-uncertainty bound.
   double fallback_sigma = 0.0;
+  // >= 0 when the monocular fallback posed the sequence: the rig camera it
+  // used alone (the records, poses, keyframes and landmarks are of a
+  // one-camera rig of it, its origin at the camera centre), and why.
+  int monocular_camera = -1;
+  std::string monocular_reason;
 };
 
 class OdometryStage {
@@ -63,6 +68,7 @@ class OdometryStage {
   void Consume(Estimator* estimator, ReversePass* reverse, const RigFrameObservations& frame,
                double frontend_seconds, OdometryOutput* out);
   void FinishEstimator(Estimator* estimator, OdometryOutput* out);
+  void MonocularFallback();
 
   const Rig rig_;
   const PipelineOptions options_;

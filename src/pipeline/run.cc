@@ -68,6 +68,17 @@ DatasetIndex MonocularIndex(DatasetIndex index) {
   return index;
 }
 
+// The dataset as seen by one of its cameras alone (the monocular fallback).
+DatasetIndex CameraOfIndex(const DatasetIndex& index, int camera) {
+  DatasetIndex out = index;
+  const size_t c = static_cast<size_t>(camera);
+  out.rig.cameras = {index.rig.cameras[c]};
+  for (DatasetFrame& frame : out.frames) frame.images = {frame.images[c]};
+  if (c < index.masks.size()) out.masks = {index.masks[c]};
+  out.log.clear();
+  return out;
+}
+
 }  // namespace
 
 DatasetIndex OpenRunDataset(const DatasetOptions& options) {
@@ -104,25 +115,20 @@ std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetInde
   return inputs;
 }
 
-std::string RunPosingWarning(int frames, int posed, const std::vector<std::string>& unposed_reasons) {
-  if (frames <= 0 || 2 * posed >= frames) return {};
-  const std::string head =
-      StrCat(posed == 0 ? "no frame posed" : StrCat("only ", posed, " of ", frames, " frames posed"), " (",
-             FormatFixed(100.0 * posed / frames, 1), " %): ");
-  // Each waiting reason in a category a user can act on; the most frequent wins.
-  auto category = [](const std::string& reason) -> std::string {
-    auto has = [&](const char* text) { return reason.find(text) != std::string::npos; };
-    if (has("parallax")) return "the rig never moved enough for the initializer (parallax too small)";
-    if (has("pure translation") || has("not observable") || has("poorly observable"))
-      return "the metric scale was never observable (the rig did not turn and no cameras overlap)";
-    if (has("rig pose failed") || has("tracking lost")) return "tracking lost";
-    if (has("correspondences")) return "too few tracked features";
-    if (has("too few cameras pass")) return "too few cameras track enough features with enough parallax";
-    if (reason.empty() || has("window")) return "too few frames to initialise";
-    return reason;
-  };
+std::string PosingFailureCategory(const std::string& reason) {
+  auto has = [&](const char* text) { return reason.find(text) != std::string::npos; };
+  if (has("parallax")) return "the rig never moved enough for the initializer (parallax too small)";
+  if (has("pure translation") || has("not observable") || has("poorly observable")) return kScaleNeverObservable;
+  if (has("rig pose failed") || has("tracking lost")) return "tracking lost";
+  if (has("correspondences")) return "too few tracked features";
+  if (has("too few cameras pass")) return "too few cameras track enough features with enough parallax";
+  if (reason.empty() || has("window")) return "too few frames to initialise";
+  return reason;
+}
+
+std::string MostFrequentPosingFailure(const std::vector<std::string>& unposed_reasons) {
   std::map<std::string, int> counts;
-  for (const std::string& reason : unposed_reasons) ++counts[category(reason)];
+  for (const std::string& reason : unposed_reasons) ++counts[PosingFailureCategory(reason)];
   std::string top = "unknown";
   int best = 0;
   for (const auto& [text, n] : counts) {
@@ -131,7 +137,15 @@ std::string RunPosingWarning(int frames, int posed, const std::vector<std::strin
       top = text;
     }
   }
-  return head + top;
+  return top;
+}
+
+std::string RunPosingWarning(int frames, int posed, const std::vector<std::string>& unposed_reasons) {
+  if (frames <= 0 || 2 * posed >= frames) return {};
+  const std::string head =
+      StrCat(posed == 0 ? "no frame posed" : StrCat("only ", posed, " of ", frames, " frames posed"), " (",
+             FormatFixed(100.0 * posed / frames, 1), " %): ");
+  return head + MostFrequentPosingFailure(unposed_reasons);
 }
 
 // `mcvo run` as a sequence of stages: open the dataset and check the
@@ -194,12 +208,22 @@ RunSummary RunPipeline(const RunRequest& request) {
   }
   progress.Finish();
   pipeline_internal::OdometryOutput odometry = odometry_stage.Finish();
-  summary.scale_arbitrary = monocular;
+  // After the monocular fallback (odometry_stage.cc) everything is of the
+  // one camera it used: the map, the evaluation, the outputs.
+  std::optional<DatasetIndex> fallback_index;
+  if (odometry.monocular_camera >= 0) {
+    fallback_index = MonocularIndex(CameraOfIndex(index, odometry.monocular_camera));
+    for (const std::string& line : fallback_index->log) {
+      if (line.rfind("one camera", 0) == 0) MCVO_LOG(kInfo, "dataset: ", line);
+    }
+  }
+  const DatasetIndex& posed = fallback_index ? *fallback_index : index;
+  summary.scale_arbitrary = monocular || fallback_index.has_value();
   // After a tracking loss: the new segment located in the old one's map.
   pipeline_internal::RelocalisationSummary relocalisation;
   if (vocabulary) {
     relocalisation =
-        pipeline_internal::RelocaliseSegments(index, *vocabulary, options.loop, threads, &odometry);
+        pipeline_internal::RelocaliseSegments(posed, *vocabulary, options.loop, threads, &odometry);
   }
   const double odometry_seconds = SecondsSince(run_start);
 
@@ -208,7 +232,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   pipeline_internal::LoopOutcome loops;
   pipeline_internal::OdometryBeforeLoops before_loops;
   if (vocabulary) {
-    loops = pipeline_internal::CloseLoops(index, odometry.keyframes, *vocabulary, options.loop, threads);
+    loops = pipeline_internal::CloseLoops(posed, odometry.keyframes, *vocabulary, options.loop, threads);
     MCVO_LOG(kInfo, "run: loop closure: ", odometry.keyframes.size(), " keyframes, ", loops.verified,
              " candidates verified, ", loops.accepted, " loop(s) accepted",
              loops.applied ? ", pose graph applied" : "");
@@ -216,7 +240,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   }
   summary.loops_accepted = loops.accepted;
   int map_observations_dropped = 0;
-  const SparseMap map = pipeline_internal::BuildSparseMap(index, odometry.keyframes, odometry.landmarks,
+  const SparseMap map = pipeline_internal::BuildSparseMap(posed, odometry.keyframes, odometry.landmarks,
                                                           options.backend, &map_observations_dropped);
   summary.seconds = SecondsSince(run_start);
   summary.frames_per_second = summary.seconds > 0 ? summary.frames / summary.seconds : 0.0;
@@ -235,7 +259,8 @@ RunSummary RunPipeline(const RunRequest& request) {
   // Outputs, then the finished folder moved into place.
   pipeline_internal::RunOutputsInput outputs;
   outputs.request = &request;
-  outputs.index = &index;
+  outputs.index = &posed;
+  outputs.opened = &index;
   outputs.threads = threads;
   outputs.total_frames = total_frames;
   outputs.vocabulary_path = vocabulary_path;

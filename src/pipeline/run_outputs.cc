@@ -262,6 +262,10 @@ Json ResultJson(const RunOutputsInput& in, const RunSummary& summary, const Eval
     result["trajectory_origin_in_rig_m"] = Json::array({c.x(), c.y(), c.z()});
   }
   if (odometry.fallback_sigma > 0.0) result["initializer_fallback_sigma"] = odometry.fallback_sigma;
+  if (odometry.monocular_camera >= 0) {
+    result["monocular_fallback"] =
+        StrCat(in.index->rig.cameras.front().name, " alone at an arbitrary scale: ", odometry.monocular_reason);
+  }
   if (!summary.warning.empty()) result["warning"] = summary.warning;
   if (summary.evaluated) {
     result["ate_rmse_m"] = summary.ate_rmse_m;
@@ -438,7 +442,8 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
   dataset["cameras"] = cameras;
   run["dataset"] = dataset;
   Json inputs;
-  for (const auto& [key, hash] : HashRunInputs(index, request.tracks, in.total_frames, in.vocabulary_path)) {
+  const DatasetIndex& opened = in.opened != nullptr ? *in.opened : index;
+  for (const auto& [key, hash] : HashRunInputs(opened, request.tracks, in.total_frames, in.vocabulary_path)) {
     inputs[key] = hash;
   }
   run["inputs"] = inputs;

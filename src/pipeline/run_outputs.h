@@ -33,7 +33,8 @@ SparseMap BuildSparseMap(const DatasetIndex& index, const std::vector<KeyframeEs
 // What the output stage reads. Pointers: owned by RunPipeline, not null.
 struct RunOutputsInput {
   const RunRequest* request = nullptr;
-  const DatasetIndex* index = nullptr;
+  const DatasetIndex* index = nullptr;   // as posed (after the monocular fallback: its one camera)
+  const DatasetIndex* opened = nullptr;  // as opened: the inputs hashed in run.json (index when null)
   int threads = 1;
   int total_frames = 0;
   std::filesystem::path vocabulary_path;  // empty: loop closure off

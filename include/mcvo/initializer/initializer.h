@@ -133,6 +133,11 @@ struct InitializerOptions {
   // some window failed only the bound above, with a std of at most this, the
   // sequence is run again with this as the bound (logged). 0: off.
   double max_relative_scale_sigma_fallback = 0.05;
+  // Offline fallback (mcvo run): when the whole sequence posed no frame
+  // because the metric scale was never observable (the rig never turned and
+  // no cameras overlap), it is run again with its best-tracked camera alone,
+  // as monocular odometry at an arbitrary scale (odometry_stage.cc).
+  bool monocular_fallback = true;
   // Rig window bundle adjustment after the scale solve (rig_window_ba.h); 0: off.
   int max_rig_ba_iterations = 50;
   CameraSfmOptions sfm;

@@ -77,6 +77,13 @@ struct RunSummary {
 // frequent reason the unposed frames waited for: the rig never moved, never
 // turned without overlapping views, tracking lost, too few features or cameras.
 std::string RunPosingWarning(int frames, int posed, const std::vector<std::string>& unposed_reasons);
+// The category of one waiting reason that a user can act on ("tracking
+// lost", kScaleNeverObservable, ...), and the most frequent category of a
+// list ("unknown" for an empty one).
+inline constexpr const char* kScaleNeverObservable =
+    "the metric scale was never observable (the rig did not turn and no cameras overlap)";
+std::string PosingFailureCategory(const std::string& reason);
+std::string MostFrequentPosingFailure(const std::vector<std::string>& unposed_reasons);
 
 // The dataset as `mcvo run` uses it (OpenDataset; a one-camera rig's origin
 // moved to the camera's centre, the ground truth with it: run.cc
