@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "mcvo/util/error.h"
+#include "mcvo/util/file.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo {
@@ -133,7 +134,7 @@ void DatasetOptions::Check() const {
 
 std::string DetectDatasetFormat(const fs::path& root) {
   std::error_code ec;
-  if (!fs::is_directory(root, ec)) MCVO_THROW_INPUT(root.string(), ": dataset folder does not exist");
+  if (!fs::is_directory(root, ec)) MCVO_THROW_INPUT(root.string(), ": dataset folder ", WhyNotAFolder(root));
   if (Exists(root / "frames.csv") && Exists(root / "rig.json")) return "generic";
   if (Exists(root / "calibration") && Exists(root / "data_2d_raw")) return "kitti360";
   if (Exists(root / "mav0") || Exists(root / "cam0" / "data.csv")) return "euroc";

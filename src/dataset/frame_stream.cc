@@ -19,6 +19,7 @@
 
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/file.h"
 #include "mcvo/util/parallel.h"
 
 namespace mcvo {
@@ -32,7 +33,11 @@ struct CameraSize {
 
 cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) MCVO_THROW_INPUT(path.string(), ": image file missing");
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    const std::string why = WhyNotAFile(path);
+    MCVO_THROW_INPUT(path.string(), ": image file ", why == "does not exist" || why.empty() ? "missing" : why);
+  }
+  if (std::filesystem::file_size(path, ec) == 0 && !ec) MCVO_THROW_INPUT(path.string(), ": empty image file (0 bytes)");
   cv::Mat image;
   try {
     // IMREAD_GRAYSCALE gives 8-bit grey for 8/16-bit, grey or colour files.
@@ -40,7 +45,9 @@ cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera)
   } catch (const cv::Exception& e) {
     MCVO_THROW_INPUT(path.string(), ": cannot decode image: ", e.what());
   }
-  if (image.empty()) MCVO_THROW_INPUT(path.string(), ": cannot decode image");
+  if (image.empty()) {
+    MCVO_THROW_INPUT(path.string(), ": cannot decode image (not an image format OpenCV reads, or truncated)");
+  }
   if (image.cols != camera.width || image.rows != camera.height) {
     MCVO_THROW_INPUT(path.string(), ": image is ", image.cols, " x ", image.rows, " px but camera ",
                      camera.name, " expects ", camera.width, " x ", camera.height);

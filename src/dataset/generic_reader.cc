@@ -13,6 +13,7 @@
 #include "mcvo/io/rig_io.h"
 #include "mcvo/io/trajectory_io.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/file.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo {
@@ -95,6 +96,7 @@ DatasetIndex ReadGenericDataset(const DatasetOptions& options) {
   }
   const Rig full_rig = ReadRig(rig_path);
   const FrameTable table = ReadFrameTable(frames_path);
+  if (table.rows.empty()) MCVO_THROW_INPUT(frames_path.string(), ": no frame (the header and no row)");
 
   std::vector<std::string> rig_names;
   for (const Camera& camera : full_rig.cameras) rig_names.push_back(camera.name);
@@ -129,7 +131,9 @@ DatasetIndex ReadGenericDataset(const DatasetOptions& options) {
       }
       const fs::path image = (root / relative).lexically_normal();
       if (!IsFile(image)) {
-        MCVO_THROW_INPUT(image.string(), ": image file missing (referenced by ", frames_path.string(),
+        const std::string why = WhyNotAFile(image);
+        MCVO_THROW_INPUT(image.string(), ": image file ", why == "does not exist" ? "missing" : why,
+                         " (referenced by ", frames_path.string(),
                          ", frame ", r, ", t_ns=", row.t_ns, ", camera ", index.rig.cameras[k].name, ")");
       }
       frame.images.push_back(image);

@@ -180,12 +180,16 @@ RunSummary RunPipeline(const RunRequest& request) {
 
   // Staging folder, renamed onto out_dir when everything is written.
   const std::filesystem::path absolute_out = std::filesystem::absolute(request.out_dir).lexically_normal();
-  CreateDirectories(absolute_out.parent_path());
   TemporaryFolder staging(absolute_out.parent_path() /
                           (absolute_out.filename().string() + ".tmp-" + std::to_string(::getpid())));
   std::error_code ec;
-  std::filesystem::remove_all(staging.path(), ec);
-  CreateDirectories(staging.path());
+  try {
+    CreateDirectories(absolute_out.parent_path());
+    std::filesystem::remove_all(staging.path(), ec);
+    CreateDirectories(staging.path());
+  } catch (const InputError& e) {
+    MCVO_THROW_INPUT(request.out_dir.string(), ": cannot create the output folder (", e.what(), ")");
+  }
 
   const int total_frames = request.max_frames > 0
                                ? std::min<int>(request.max_frames, static_cast<int>(index.frames.size()))

@@ -56,6 +56,31 @@ std::string ReadFileToString(const std::filesystem::path& path) {
   return content.str();
 }
 
+namespace {
+
+// What is at `path` when it is not what was wanted; empty when it is.
+std::string WhyNot(const std::filesystem::path& path, bool want_folder) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  std::error_code follow;
+  const fs::file_status target = fs::status(path, follow);
+  if (!follow && (want_folder ? fs::is_directory(target) : fs::is_regular_file(target))) return {};
+  const fs::file_status link = fs::symlink_status(path, ec);
+  if (ec || !fs::exists(link)) return "does not exist";
+  if (fs::is_symlink(link)) {
+    if (follow == std::errc::too_many_symbolic_link_levels) return "is a symbolic link loop";
+    if (follow || !fs::exists(target)) return "is a dangling symbolic link";
+  }
+  if (fs::is_directory(target)) return "is a folder, not a file";
+  if (fs::is_regular_file(target)) return "is a file, not a folder";
+  return want_folder ? "is not a folder" : "is not a regular file";
+}
+
+}  // namespace
+
+std::string WhyNotAFile(const std::filesystem::path& path) { return WhyNot(path, false); }
+std::string WhyNotAFolder(const std::filesystem::path& path) { return WhyNot(path, true); }
+
 void CreateDirectories(const std::filesystem::path& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);

@@ -26,12 +26,11 @@ inline std::string Quote(const std::string& text) {
   return out + "'";
 }
 
-// Runs `mcvo <args>` (args already quoted where needed) and captures its
-// output and exit code.
-inline Result RunMcvo(const std::string& args) {
-  const std::string command = Quote(MCVO_BINARY) + " " + args + " 2>&1";
+// Runs a /bin/sh command line and captures its output (stdout and stderr
+// together) and exit code (-1 when it did not exit normally).
+inline Result RunShell(const std::string& command) {
   Result result;
-  FILE* pipe = popen(command.c_str(), "r");
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
   if (pipe == nullptr) return result;
   std::array<char, 4096> buffer{};
   size_t n = 0;
@@ -39,6 +38,16 @@ inline Result RunMcvo(const std::string& args) {
   const int status = pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+// Runs `mcvo <args>` (args already quoted where needed).
+inline Result RunMcvo(const std::string& args) { return RunShell(Quote(MCVO_BINARY) + " " + args); }
+
+// RunMcvo with a wall-clock limit: a command still running after `seconds`
+// is killed and reported as exit code 124 (a hang is a failure, not a stall
+// of the test suite).
+inline Result RunMcvoWithin(int seconds, const std::string& args) {
+  return RunShell("timeout --kill-after=5 " + std::to_string(seconds) + " " + Quote(MCVO_BINARY) + " " + args);
 }
 
 // A scratch folder of this test process, `<TempDir>/<prefix>_<pid>`, emptied

@@ -40,6 +40,13 @@ void WriteFileAtomic(const std::filesystem::path& path, const std::string& conte
 // Reads a whole file; throws InputError "<path>: cannot open" when it cannot.
 std::string ReadFileToString(const std::filesystem::path& path);
 
+// Why `path` cannot be read as a file (WhyNotAFile) or listed as a folder
+// (WhyNotAFolder), for an error message: "does not exist", "is a folder,
+// not a file", "is a symbolic link loop", "is a dangling symbolic link",
+// ...; empty when it can.
+std::string WhyNotAFile(const std::filesystem::path& path);
+std::string WhyNotAFolder(const std::filesystem::path& path);
+
 // Creates `dir` (and parents); throws InputError naming it on failure.
 void CreateDirectories(const std::filesystem::path& dir);
 
