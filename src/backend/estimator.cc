@@ -974,6 +974,7 @@ struct Estimator::Impl {
     estimate->pnp_inliers = pnp.num_inliers;
     if (!pnp.ok) {
       estimate->waiting_reason = StrCat("rig pose failed: ", pnp.reason);
+      ReleaseFrame(frame);  // never entered the window
       return false;
     }
     frame->SetWorldFromRig(pnp.world_from_rig);

@@ -222,6 +222,55 @@ TEST(EstimatorTest, AllCamerasLostStartsANewSegmentAndInitialisesAgain) {
   EXPECT_TRUE(out.frames.back().has_pose);
 }
 
+// One camera (monocular, estimator.h "Monocular"): it initialises at an
+// arbitrary scale that then holds (the scale gauge), and three losses of
+// every feature (frames 70-72, 100-102, 130-132) each start a segment that
+// initialises again: a frame whose pose fails goes back to the pool (it once
+// leaked, and the second loss with a full window aborted the run).
+TEST(EstimatorTest, OneCameraHoldsItsArbitraryScaleAndSurvivesRepeatedLosses) {
+  Rig rig = LoadPresetRig("kitti360_stereo");
+  rig.cameras.resize(1);
+  rig.cameras[0].cam_from_rig.translation.setZero();
+  SyntheticRigTracks truth = Drive(rig, 0.5, false);
+  for (int start : {70, 100, 130}) {
+    for (int f = start; f < start + 3; ++f) {
+      truth.frames[f].cameras[0].clear();
+      truth.frames[f].camera_missing[0] = true;
+    }
+  }
+  const RunOutput out = RunEstimator(rig, truth.frames, BackendOptions(), 2);
+  int lost = 0, init = 0, corrections = 0;
+  for (const ScaleLogEntry& e : out.scale_log) {
+    lost += e.event == "lost" ? 1 : 0;
+    init += e.event == "init" || e.event == "reinit" ? 1 : 0;
+    corrections += e.event == "correction" ? 1 : 0;
+    if (e.event == "init") {
+      EXPECT_NE(e.note.find("arbitrary scale"), std::string::npos) << e.note;
+    }
+  }
+  EXPECT_EQ(lost, 3);
+  EXPECT_EQ(init, 4);
+  EXPECT_EQ(corrections, 0);
+  EXPECT_TRUE(out.frames.back().has_pose);
+  // The first segment (to frame 69, through the corner): the estimated
+  // distance per true metre is the same in its first and second half.
+  std::vector<int> first_segment;
+  for (const FrameEstimate& f : out.frames) {
+    if (f.has_pose && f.segment == 0 && out.poses.count(f.frame_index) != 0) first_segment.push_back(f.frame_index);
+  }
+  ASSERT_GE(first_segment.size(), 50u);
+  auto ratio = [&](size_t a, size_t b) {
+    const int fa = first_segment[a], fb = first_segment[b];
+    return (out.poses.at(fb).translation - out.poses.at(fa).translation).norm() /
+           (truth.world_from_rig[fb].translation - truth.world_from_rig[fa].translation).norm();
+  };
+  const size_t mid = first_segment.size() / 2, last = first_segment.size() - 1;
+  const double early = ratio(0, mid), late = ratio(mid, last);
+  std::printf("one camera: units per metre %.4f (frames %d-%d), %.4f (frames %d-%d)\n", early, first_segment[0],
+              first_segment[mid], late, first_segment[mid], first_segment[last]);
+  EXPECT_NEAR(late / early, 1.0, 0.03);
+}
+
 TEST(EstimatorTest, ScaleCorrectionIsLoggedAndChangesTheState) {
   const Rig rig = LoadPresetRig("kitti360_3cam");
   const SyntheticRigTracks truth = Drive(rig, 0.5, false);
