@@ -54,38 +54,78 @@ void ApplyReversePass(ReversePassResult result, OdometryOutput* out) {
   for (ScaleLogEntry& entry : result.scale_log) out->scale_log.push_back(std::move(entry));
 }
 
+// Mean speed (distance per frame) over up to kSpeedFrames consecutive posed
+// frames of `frames` (frame indices, increasing) from its start or its end,
+// in the frame `move` maps the poses to; 0 when it cannot be measured.
+constexpr size_t kSpeedFrames = 10;
+double MeanSpeed(const OdometryOutput& out, const std::vector<int>& frames, bool from_end, const Sim3d& move) {
+  if (frames.size() < 2) return 0.0;
+  const size_t n = std::min(frames.size(), kSpeedFrames);
+  const size_t first = from_end ? frames.size() - n : 0;
+  double path = 0.0;
+  for (size_t k = first + 1; k < first + n; ++k) {
+    path += (move * out.poses.at(frames[k]).world_from_body.translation -
+             move * out.poses.at(frames[k - 1]).world_from_body.translation)
+                .norm();
+  }
+  const int span = frames[first + n - 1] - frames[first];
+  return span > 0 ? path / span : 0.0;
+}
+
 // Places each later segment where the one before it was heading: a segment
 // starts after a tracking loss, at the last good pose (estimator.h); once
 // the reverse pass has posed it back towards the loss, its first posed
 // frame a is moved to the constant-velocity prediction from the previous
 // segment's last two poses (b-1, b) over the a - b frames between, and
 // everything of the segment (poses, keyframes, landmarks) moves with it.
-// Logged as one "link" line per segment.
-void LinkSegments(OdometryOutput* out) {
+// Monocular (each segment initialises in its own arbitrary unit): the
+// segment is also scaled about frame a so that its mean speed over its first
+// 10 posed frames is the previous segment's over its last 10 (the same
+// constant-velocity assumption, applied to the unit). Logged as one "link"
+// line per segment.
+void LinkSegments(bool monocular, OdometryOutput* out) {
   const std::map<int, int> segment_of = SegmentOfPosedFrames(*out);
-  std::map<int, Rigid3d> correction;  // segment -> world_new_from_world_old
+  std::map<int, Sim3d> correction;  // segment -> world_new_from_world_old
   std::map<int, std::vector<int>> frames_of;
   for (const auto& [index, segment] : segment_of) frames_of[segment].push_back(index);
   int previous = -1;
   for (const auto& [segment, frames] : frames_of) {
-    correction[segment] = previous >= 0 ? correction[previous] : Rigid3d();
+    correction[segment] = previous >= 0 ? correction[previous] : Sim3d();
     const std::vector<int>& before = previous >= 0 ? frames_of[previous] : std::vector<int>();
     if (before.size() >= 2 && frames.front() > before.back()) {
-      const Rigid3d last = correction[previous] * out->poses.at(before.back()).world_from_body;
-      const Rigid3d second = correction[previous] * out->poses.at(before[before.size() - 2]).world_from_body;
+      const Sim3d& moved = correction[previous];
+      const Rigid3d last = moved.TransformPose(out->poses.at(before.back()).world_from_body);
+      const Rigid3d second = moved.TransformPose(out->poses.at(before[before.size() - 2]).world_from_body);
       const Rigid3d step = second.Inverse() * last;
       const int gap = frames.front() - before.back();
       Rigid3d predicted = last;
       for (int k = 0; k < gap; ++k) predicted = predicted * step;
-      correction[segment] = predicted * out->poses.at(frames.front()).world_from_body.Inverse();
+      double scale = 1.0;
+      std::string scaled;
+      if (monocular) {
+        const double before_speed = MeanSpeed(*out, before, /*from_end=*/true, moved);
+        const double own_speed = MeanSpeed(*out, frames, /*from_end=*/false, Sim3d());
+        if (before_speed > 0.0 && own_speed > 0.0 && std::isfinite(before_speed / own_speed)) {
+          scale = before_speed / own_speed;
+          scaled = StrCat(", scaled by ", FormatFixed(scale, 4),
+                          " to continue its speed (monocular: each segment has its own unit)");
+        } else {
+          scaled = ", not scaled (no speed to match: monocular segments keep their own units)";
+        }
+      }
+      const Rigid3d& first = out->poses.at(frames.front()).world_from_body;
+      correction[segment] =
+          Sim3d(predicted) * Sim3d(scale, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero()) *
+          Sim3d(first.Inverse());
       ScaleLogEntry entry;
       entry.frame_index = frames.front();
       entry.t_ns = out->poses.at(frames.front()).t_ns;
       entry.segment = segment;
       entry.event = "link";
       entry.applied = true;
+      entry.applied_ratio = scale;
       entry.note = StrCat("segment ", segment, " placed by constant velocity from frame ", before.back(),
-                          " of segment ", previous, " over ", gap, " frame(s) (no relocalisation)");
+                          " of segment ", previous, " over ", gap, " frame(s)", scaled, " (no relocalisation)");
       out->scale_log.push_back(std::move(entry));
     }
     previous = segment;
@@ -106,28 +146,28 @@ std::map<int, int> SegmentOfPosedFrames(const OdometryOutput& out) {
   return segment_of;
 }
 
-void MoveSegments(const std::map<int, Rigid3d>& correction, OdometryOutput* out) {
+void MoveSegments(const std::map<int, Sim3d>& correction, OdometryOutput* out) {
   const std::map<int, int> segment_of = SegmentOfPosedFrames(*out);
-  auto find = [&](int segment) -> const Rigid3d* {
+  auto find = [&](int segment) -> const Sim3d* {
     auto it = correction.find(segment);
     return it == correction.end() ? nullptr : &it->second;
   };
   for (auto& [index, pose] : out->poses) {
     auto segment = segment_of.find(index);
-    const Rigid3d* c = segment == segment_of.end() ? nullptr : find(segment->second);
-    if (c != nullptr) pose.world_from_body = *c * pose.world_from_body;
+    const Sim3d* c = segment == segment_of.end() ? nullptr : find(segment->second);
+    if (c != nullptr) pose.world_from_body = c->TransformPose(pose.world_from_body);
   }
   std::map<int64_t, int> landmark_segment;
   for (KeyframeEstimate& kf : out->keyframes) {
     for (const MapObservation& ob : kf.observations) landmark_segment[ob.landmark_id] = kf.segment;
-    const Rigid3d* c = find(kf.segment);
+    const Sim3d* c = find(kf.segment);
     if (c == nullptr) continue;
-    kf.world_from_rig = *c * kf.world_from_rig;
+    kf.world_from_rig = c->TransformPose(kf.world_from_rig);
     for (Eigen::Vector3d& p : kf.observation_points) p = *c * p;
   }
   for (auto& [id, position] : out->landmarks) {
     auto it = landmark_segment.find(id);
-    const Rigid3d* c = it == landmark_segment.end() ? nullptr : find(it->second);
+    const Sim3d* c = it == landmark_segment.end() ? nullptr : find(it->second);
     if (c != nullptr) position = *c * position;
   }
 }
@@ -239,7 +279,7 @@ OdometryOutput OdometryStage::Finish() {
     out_.reverse_seconds = SecondsSince(start);
     reverse_.reset();
   }
-  if (out_.segments > 1) LinkSegments(&out_);
+  if (out_.segments > 1) LinkSegments(rig_.NumCameras() == 1 || out_.monocular_camera >= 0, &out_);
   std::stable_sort(
       out_.keyframes.begin(), out_.keyframes.end(),
       [](const KeyframeEstimate& a, const KeyframeEstimate& b) { return a.frame_index < b.frame_index; });

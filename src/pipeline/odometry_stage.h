@@ -20,6 +20,7 @@
 #include "mcvo/backend/reverse_pass.h"
 #include "mcvo/config/pipeline_options.h"
 #include "mcvo/geometry/rigid3d.h"
+#include "mcvo/geometry/sim3d.h"
 #include "mcvo/io/trajectory_io.h"
 
 namespace mcvo::pipeline_internal {
@@ -84,9 +85,10 @@ class OdometryStage {
 // Posed frame -> its segment (the reverse pass's segment for the frames it posed).
 std::map<int, int> SegmentOfPosedFrames(const OdometryOutput& out);
 // Moves every pose, keyframe (with its observation points) and landmark of
-// each segment in `correction` by it (world_new_from_world_old); a
+// each segment in `correction` by it (world_new_from_world_old, a rigid
+// motion, or a similarity for a monocular segment whose unit changes); a
 // landmark belongs to the segment of the last keyframe that observed it.
-void MoveSegments(const std::map<int, Rigid3d>& correction, OdometryOutput* out);
+void MoveSegments(const std::map<int, Sim3d>& correction, OdometryOutput* out);
 
 std::string FrameStatsCsv(const Rig& rig, const OdometryOutput& odometry);
 std::string TimingCsv(const OdometryOutput& odometry);

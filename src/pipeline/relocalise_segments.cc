@@ -304,8 +304,8 @@ RelocalisationSummary RelocaliseSegments(const DatasetIndex& index, const Vocabu
       // world_prev_from_world_cur, applied to this segment and every later
       // one (they are chained to it).
       const Rigid3d correction = located.world_prev_from_query * located.world_cur_from_query.Inverse();
-      std::map<int, Rigid3d> move;
-      for (auto later = it; later != by_segment.end(); ++later) move[later->first] = correction;
+      std::map<int, Sim3d> move;
+      for (auto later = it; later != by_segment.end(); ++later) move[later->first] = Sim3d(correction);
       MoveSegments(move, odometry);
       ++summary.applied;
       entry.applied = true;

@@ -92,6 +92,38 @@ TEST(OdometryStageTest, AfterEveryCameraIsBlackedOutTheNewSegmentContinuesWhereT
   }
 }
 
+// One camera: the segment after the blackout initialises in a unit of its
+// own; the link scales it to continue the previous segment's speed, so the
+// whole trajectory has one unit (the rig drives at a constant 0.6 m a frame).
+TEST(OdometryStageTest, MonocularSegmentsAreLinkedAtTheSpeedOfTheOneBefore) {
+  Rig rig = LoadPresetRig("kitti360_stereo");
+  rig.cameras.resize(1);
+  rig.cameras[0].cam_from_rig.translation.setZero();
+  SyntheticRigTracks truth = Drive(rig, 130, false);
+  constexpr int kFirst = 80, kCount = 10;
+  for (int f = kFirst; f < kFirst + kCount; ++f) {
+    truth.frames[f].cameras[0].clear();
+    truth.frames[f].camera_missing[0] = true;
+  }
+  const OdometryOutput out = RunStage(rig, truth.frames, Options());
+  ASSERT_EQ(out.segments, 2);
+  double applied = 0.0;
+  for (const ScaleLogEntry& e : out.scale_log) {
+    if (e.event != "link") continue;
+    EXPECT_NE(e.note.find("scaled by"), std::string::npos) << e.note;
+    applied = e.applied_ratio;
+  }
+  // Units per metre: estimated over true distance, before and after the blackout.
+  auto units_per_metre = [&](int a, int b) {
+    return (out.poses.at(b).world_from_body.translation - out.poses.at(a).world_from_body.translation).norm() /
+           (truth.world_from_rig[b].translation - truth.world_from_rig[a].translation).norm();
+  };
+  const double before = units_per_metre(55, 79), after = units_per_metre(95, 129);
+  std::printf("one camera: %.4f units/m before the blackout, %.4f after (link scaled by %.4f)\n", before, after,
+              applied);
+  EXPECT_NEAR(after / before, 1.0, 0.05);
+}
+
 TEST(OdometryStageTest, FallbackInitialisesWhenNoWindowMeetsTheStrictBound) {
   // Three cameras without overlap: the scale comes from the corner only; a
   // bound no window can meet leaves the sequence unposed, and the fallback
