@@ -142,8 +142,9 @@ TEST(OdometryStageTest, FallbackInitialisesWhenNoWindowMeetsTheStrictBound) {
   }
   EXPECT_TRUE(noted);
 
-  // Fallback off: nothing posed.
+  // Fallback off (and the monocular one, the last resort after it): nothing posed.
   options.initializer.max_relative_scale_sigma_fallback = 0.0;
+  options.initializer.monocular_fallback = false;
   const OdometryOutput off = RunStage(rig, truth.frames, options);
   EXPECT_EQ(off.fallback_sigma, 0.0);
   EXPECT_TRUE(off.poses.empty());
