@@ -102,15 +102,16 @@ TEST(MonocularCli, OneCameraRunsAtAnArbitraryScaleAndSaysSo) {
   EXPECT_GT(ReadJson(rigid_out / "eval.json")["ate"]["translation_m"]["rmse"].get<double>(), 10.0 * eval_rmse);
 }
 
-// The KITTI-360 3-camera rig (no overlapping views) on the first 80 frames of
+// The KITTI-360 3-camera rig (no overlapping views) on the first 60 frames of
 // the urban route, a straight road: its metric scale is never observable,
 // so no window initialises. Offline, the run is made again with the camera
-// that tracked the most features alone, at an arbitrary scale, and says so;
+// that tracked the most features alone, at an arbitrary scale, and says so
+// (measured: image_03 alone, 60 of 60 posed, Sim3 ATE 0.21 % of 46 m);
 // with initializer.monocular_fallback off it poses nothing and exits with 5.
 TEST(MonocularCli, ARigWhoseScaleIsNeverObservableFinishesUpToScale) {
   std::string error;
   const fs::path seq = mcvo::test::CachedSynth(
-      "--preset kitti360-3cam --frames 80 --image-scale 0.35 --samples 1 --noise 1 --seed 8", &error);
+      "--preset kitti360-3cam --frames 60 --image-scale 0.3 --samples 1 --noise 1 --seed 8", &error);
   ASSERT_FALSE(seq.empty()) << error;
   const std::string config = std::string(MCVO_SOURCE_DIR) + "/config/kitti360_3cam.json";
   const fs::path out = Root() / "straight";
@@ -120,7 +121,7 @@ TEST(MonocularCli, ARigWhoseScaleIsNeverObservableFinishesUpToScale) {
   EXPECT_NE(r.output.find("the metric scale was never observable"), std::string::npos) << r.output;
   const nlohmann::json run = ReadJson(out / "run.json");
   const nlohmann::json& result = run["result"];
-  EXPECT_EQ(result["posed_frames"], 80);
+  EXPECT_EQ(result["posed_frames"], 60);
   EXPECT_EQ(result["scale"], "arbitrary");
   EXPECT_EQ(result["alignment"], "sim3");
   ASSERT_TRUE(result.contains("monocular_fallback")) << result.dump();
@@ -148,8 +149,8 @@ TEST(MonocularCli, ARigWhoseScaleIsNeverObservableFinishesUpToScale) {
   c["initializer"]["monocular_fallback"] = false;
   mcvo::WriteFileAtomic(off_config, c.dump(2));
   const fs::path off = Root() / "straight_off";
-  r = RunMcvo("run --dataset " + Quote(seq.string()) + " --config " + Quote(off_config.string()) + " --out " +
-              Quote(off.string()));
+  r = RunMcvo("run --dataset " + Quote(seq.string()) + " --frames 30 --config " + Quote(off_config.string()) +
+              " --out " + Quote(off.string()));
   EXPECT_EQ(r.exit_code, 5) << r.output;
   EXPECT_NE(r.output.find("no frame posed"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("the metric scale was never observable"), std::string::npos) << r.output;
