@@ -299,9 +299,8 @@ if python3 -c 'import json,sys; sys.exit(0 if json.load(open(sys.argv[1]))["runs
   echo "batch: $(grep -c '"name"' "$MANIFEST") runs -> $SCRATCH/runs" >&2
   start=$(now)
   # Its log and summary table go to stderr (and batch.log): stdout is the suite's table only.
-  # --force: every run again. batch's up-to-date check compares config and
-  # inputs, not the mcvo build, so without it a new build would be measured
-  # by the runs of the old one.
+  # --force: every run again, so the wall times are this invocation's
+  # (batch's up-to-date check would rerun only runs of another build).
   "$MCVO" batch --manifest "$MANIFEST" --jobs 1 --force --out "$SCRATCH/runs" 2>&1 | tee "$SCRATCH/batch.log" >&2 ||
     batch_rc=${PIPESTATUS[0]}
   batch_s=$(elapsed "$start" "$(now)")

@@ -453,6 +453,11 @@ std::optional<std::string> RunOutOfDateReason(const fs::path& run_dir, const Bat
   const std::optional<Json> run = ReadRunJson(run_dir);
   if (!run) return std::string("no readable run.json");
   if (std::optional<std::string> reason = ConfigDifference(*run, options)) return reason;
+  const Json* build = run->contains("build") && (*run)["build"].is_object() ? &(*run)["build"] : nullptr;
+  if (build == nullptr || !build->contains("executable_sha256") ||
+      (*build)["executable_sha256"] != ExecutableSha256()) {
+    return std::string("made by another mcvo build (run.json build.executable_sha256)");
+  }
   if (!run->contains("outputs_sha256") || !(*run)["outputs_sha256"].is_object()) {
     return std::string("run.json lists no outputs");
   }

@@ -32,8 +32,9 @@ constexpr double kRadToDeg = 180.0 / M_PI;
 // Always ignored in JSON: not deterministic, or paths and versions rather
 // than results.
 const char* const kIgnoredJson[] = {
-    "run.json:/timing",       "run.json:/version",        "run.json:/command_line", "run.json:/config_source",
-    "run.json:/dataset/root", "run.json:/outputs_sha256", "*eval.json:/gt/name",    "*eval.json:/est/name"};
+    "run.json:/timing",        "run.json:/version",      "run.json:/build",     "run.json:/command_line",
+    "run.json:/config_source", "run.json:/dataset/root", "run.json:/outputs_sha256", "*eval.json:/gt/name",
+    "*eval.json:/est/name"};
 
 }  // namespace
 

@@ -429,6 +429,9 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
   Json run;
   run["program"] = "mcvo";
   run["version"] = request.version;
+  // The build that made the outputs: `mcvo batch` runs a run again when it
+  // changes (a new build may pose differently); `mcvo regress` ignores it.
+  run["build"] = Json{{"executable_sha256", ExecutableSha256()}};
   run["command_line"] = request.command_line;
   run["config_source"] = request.config_source;
   run["config"] = recorded_config;

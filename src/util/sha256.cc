@@ -63,4 +63,15 @@ std::string Sha256File(const std::filesystem::path& path) {
   return sha.HexDigest();
 }
 
+const std::string& ExecutableSha256() {
+  static const std::string hash = [] {
+    try {
+      return Sha256File("/proc/self/exe");
+    } catch (const std::exception&) {
+      return std::string("unknown");
+    }
+  }();
+  return hash;
+}
+
 }  // namespace mcvo

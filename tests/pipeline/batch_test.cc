@@ -21,6 +21,7 @@
 #include "mcvo/synth/synthesize.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
+#include "mcvo/util/sha256.h"
 #include "mcvo/util/strings.h"
 #include "test_temp_dir.h"
 
@@ -263,6 +264,16 @@ TEST(BatchRun, SkipsRunsThatAreUpToDateAndRerunsChangedOnes) {
   EXPECT_NE(report.runs[0].note.find("frame count changed"), std::string::npos) << report.runs[0].note;
   EXPECT_EQ(report.runs[0].frames, 14);
   EXPECT_EQ(report.runs[1].status, BatchRunStatus::kSkipped);
+
+  // Made by another build (another executable): runs again.
+  nlohmann::json run_b = RunJson(options.out_dir / "b");
+  ASSERT_EQ(run_b["build"]["executable_sha256"], ExecutableSha256());
+  run_b["build"]["executable_sha256"] = std::string(64, '0');
+  WriteFileAtomic(options.out_dir / "b" / "run.json", run_b.dump(2));
+  report = RunBatch(manifest, options);
+  EXPECT_EQ(report.runs[0].status, BatchRunStatus::kSkipped);
+  EXPECT_EQ(report.runs[1].status, BatchRunStatus::kOk);
+  EXPECT_NE(report.runs[1].note.find("made by another mcvo build"), std::string::npos) << report.runs[1].note;
 
   // An output edited by hand: runs again. --force: runs again although up to date.
   WriteFileAtomic(options.out_dir / "a" / "trajectory.tum", "edited\n");

@@ -27,5 +27,9 @@ class Sha256 {
 std::string Sha256Hex(std::string_view data);
 // Hash of a file's bytes; throws InputError naming the file when it cannot be read.
 std::string Sha256File(const std::filesystem::path& path);
+// SHA-256 of this process's executable (/proc/self/exe), computed once: what
+// identifies the build that made an output (run.json "build"); "unknown"
+// when it cannot be read.
+const std::string& ExecutableSha256();
 
 }  // namespace mcvo
