@@ -6,10 +6,12 @@
 #   make demo    build and run the default job on the built-in example
 #   make format  clang-format all sources in place
 #   make lint    clang-tidy over src/ and tools/ (uses build/compile_commands.json)
+#   make fuzz    libFuzzer targets of the input readers, FUZZ_SECONDS each (docs/fuzzing.md)
 
 BUILD_DIR ?= build
 BUILD_TYPE ?= Release
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+FUZZ_SECONDS ?= 600
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 # Debian 12 package names. colmap is the real binary that later checks our
@@ -18,11 +20,11 @@ DEB_PACKAGES := build-essential cmake pkg-config git ca-certificates \
   libeigen3-dev libceres-dev libsuitesparse-dev libssl-dev libgoogle-glog-dev libgflags-dev \
   libopencv-dev libopencv-contrib-dev nlohmann-json3-dev libyaml-cpp-dev \
   libgtest-dev libgmock-dev libopengv-dev colmap chromium \
-  clang-format clang-tidy
+  clang-format clang-tidy clang libclang-rt-14-dev
 
 SOURCES := $(shell find src include tools tests -name '*.cc' -o -name '*.h' 2>/dev/null)
 
-.PHONY: all build deps configure test demo format lint clean
+.PHONY: all build deps configure test demo format lint fuzz clean
 
 all: build
 
@@ -49,6 +51,11 @@ format:
 
 lint: configure
 	run-clang-tidy -quiet -p $(BUILD_DIR) '$(CURDIR)/(src|tools)/.*\.cc$$'
+
+# Builds the fuzz targets with clang in build-fuzz/ (never build/), runs each
+# for FUZZ_SECONDS and writes results/fuzz.md and results/fuzz.csv.
+fuzz:
+	FUZZ_SECONDS=$(FUZZ_SECONDS) JOBS=$(JOBS) ./tools/run_fuzz.sh
 
 clean:
 	rm -rf $(BUILD_DIR)

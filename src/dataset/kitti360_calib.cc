@@ -3,18 +3,20 @@
 
 #include <Eigen/SVD>
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
+#include <string_view>
 #include <system_error>
-
-#include <opencv2/core.hpp>
 
 #include "mcvo/io/rig_io.h"
 #include "mcvo/io/trajectory_io.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/strings.h"
+#include "yaml_util.h"
 
 namespace mcvo::kitti360 {
 namespace {
@@ -42,25 +44,30 @@ void CivilFromDays(int64_t days, int64_t* year, int64_t* month, int64_t* day) {
 
 int64_t FloorDiv(int64_t a, int64_t b) { return a / b - ((a % b != 0) && ((a < 0) != (b < 0)) ? 1 : 0); }
 
-// A number of a FileStorage map, named by its key path in errors.
-double YamlNumber(const cv::FileNode& parent, const std::string& parent_key, const std::string& key,
-                  const fs::path& path) {
-  const std::string key_path = parent_key.empty() ? key : parent_key + "/" + key;
-  const cv::FileNode node = parent[key];
-  if (node.empty() || node.isNone()) MCVO_THROW_INPUT(path.string(), ": key ", key_path, ": missing");
-  if (!node.isReal() && !node.isInt())
-    MCVO_THROW_INPUT(path.string(), ": key ", key_path, ": expected a number");
-  const double value = static_cast<double>(node);
-  if (!std::isfinite(value))
-    MCVO_THROW_INPUT(path.string(), ": key ", key_path, ": expected a finite number");
-  return value;
-}
-
-cv::FileNode YamlMap(const cv::FileNode& root, const std::string& key, const fs::path& path) {
-  const cv::FileNode node = root[key];
-  if (node.empty() || node.isNone()) MCVO_THROW_INPUT(path.string(), ": key ", key, ": missing");
-  if (!node.isMap()) MCVO_THROW_INPUT(path.string(), ": key ", key, ": expected a map");
-  return node;
+// The dataset's image_0N.yaml with a space after every key's colon: the
+// files write some keys as "xi:2.21", which cv::FileStorage reads as a key
+// and yaml-cpp as one string. Only a line's leading "key:" is touched.
+std::string SpaceAfterKeyColons(const std::string& text) {
+  std::string out;
+  out.reserve(text.size() + 64);
+  size_t start = 0;
+  while (start < text.size()) {
+    size_t end = text.find('\n', start);
+    end = end == std::string::npos ? text.size() : end + 1;
+    const std::string_view line(text.data() + start, end - start);
+    size_t i = line.find_first_not_of(' ');
+    const size_t key_start = i;
+    while (i < line.size() && (std::isalnum(static_cast<unsigned char>(line[i])) || line[i] == '_')) ++i;
+    const bool is_key = key_start != std::string_view::npos && i > key_start && i + 1 < line.size() &&
+                        line[i] == ':' && line[i + 1] != ' ' && line[i + 1] != '\n' && line[i + 1] != '\r';
+    if (is_key) {
+      out.append(line.substr(0, i + 1)).append(" ").append(line.substr(i + 1));
+    } else {
+      out.append(line);
+    }
+    start = end;
+  }
+  return out;
 }
 
 }  // namespace
@@ -188,46 +195,40 @@ Rigid3d PoseFromCam1(const Rigid3d& rig_from_rect1, const Eigen::Matrix3d& rect_
 }
 
 Camera ReadMeiYaml(const fs::path& path, const std::string& camera_name) {
+  using namespace dataset_internal;
   RequireFile(path);
-  const std::string text = ReadFileToString(path);
-  cv::FileStorage storage;
-  try {
-    storage.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-  } catch (const cv::Exception& e) {
-    MCVO_THROW_INPUT(path.string(), ": not a valid OpenCV YAML file (", Trim(e.err), ")");
-  }
-  if (!storage.isOpened()) MCVO_THROW_INPUT(path.string(), ": not a valid OpenCV YAML file");
-  const cv::FileNode root = storage.root();
-  if (!root.isMap()) MCVO_THROW_INPUT(path.string(), ": expected a YAML map");
-  const cv::FileNode model = root["model_type"];
-  if (!model.empty() && !model.isNone()) {
-    if (!model.isString() || (static_cast<std::string>(model) != "MEI")) {
-      MCVO_THROW_INPUT(path.string(), ": key model_type: expected MEI");
-    }
-  }
+  // yaml-cpp, as the other YAML readers: cv::FileStorage's parser hangs or
+  // throws std::length_error on some malformed files (found by
+  // tests/fuzz/kitti360_mei_fuzz.cc: "%YAML:1.\n k:0\n %YAML:1.0\n:---\nm" never returns).
+  const YamlFile file = ParseYamlText(path, SpaceAfterKeyColons(ReadFileToString(path)));
   Camera camera;
   camera.name = camera_name;
   camera.model = CameraModelId::kMei;
-  const double width = YamlNumber(root, "", "image_width", path);
-  const double height = YamlNumber(root, "", "image_height", path);
-  if (width < 1 || height < 1 || width != std::floor(width) || height != std::floor(height) || width > 1e6 ||
-      height > 1e6) {
-    MCVO_THROW_INPUT(path.string(), ": keys image_width, image_height: expected positive integers");
-  }
-  camera.width = static_cast<int>(width);
-  camera.height = static_cast<int>(height);
-  const cv::FileNode mirror = YamlMap(root, "mirror_parameters", path);
-  const cv::FileNode distortion = YamlMap(root, "distortion_parameters", path);
-  const cv::FileNode projection = YamlMap(root, "projection_parameters", path);
-  camera.params = {YamlNumber(mirror, "mirror_parameters", "xi", path),
-                   YamlNumber(distortion, "distortion_parameters", "k1", path),
-                   YamlNumber(distortion, "distortion_parameters", "k2", path),
-                   YamlNumber(distortion, "distortion_parameters", "p1", path),
-                   YamlNumber(distortion, "distortion_parameters", "p2", path),
-                   YamlNumber(projection, "projection_parameters", "gamma1", path),
-                   YamlNumber(projection, "projection_parameters", "gamma2", path),
-                   YamlNumber(projection, "projection_parameters", "u0", path),
-                   YamlNumber(projection, "projection_parameters", "v0", path)};
+  CatchYamlErrors(file, [&] {
+    if (const std::optional<YAML::Node> model = OptionalKey(file.root, "model_type")) {
+      if (ReadString(file, *model, "model_type") != "MEI")
+        ThrowYamlError(file, *model, "model_type", "expected MEI");
+    }
+    const YAML::Node width_node = RequiredKey(file, file.root, "", "image_width");
+    const YAML::Node height_node = RequiredKey(file, file.root, "", "image_height");
+    const double width = ReadDouble(file, width_node, "image_width");
+    const double height = ReadDouble(file, height_node, "image_height");
+    if (width < 1 || height < 1 || width != std::floor(width) || height != std::floor(height) ||
+        width > 1e6 || height > 1e6) {
+      ThrowYamlError(file, width_node, "image_width, image_height", "expected positive integers");
+    }
+    camera.width = static_cast<int>(width);
+    camera.height = static_cast<int>(height);
+    auto number = [&](const char* group, const char* key) {
+      const YAML::Node map = RequiredKey(file, file.root, "", group);
+      return ReadDouble(file, RequiredKey(file, map, group, key), JoinKey(group, key));
+    };
+    camera.params = {number("mirror_parameters", "xi"),         number("distortion_parameters", "k1"),
+                     number("distortion_parameters", "k2"),     number("distortion_parameters", "p1"),
+                     number("distortion_parameters", "p2"),     number("projection_parameters", "gamma1"),
+                     number("projection_parameters", "gamma2"), number("projection_parameters", "u0"),
+                     number("projection_parameters", "v0")};
+  });
   const std::string error = CameraParamsError(camera.model, camera.params);
   if (!error.empty()) MCVO_THROW_INPUT(path.string(), ": ", error);
   return camera;
@@ -237,7 +238,7 @@ std::string MeiYamlText(const Camera& camera) {
   MCVO_CHECK(camera.model == CameraModelId::kMei && camera.params.size() == 9);
   const std::vector<double>& p = camera.params;
   // As the dataset's files: "%YAML:1.0", and some keys without a space after
-  // the colon (cv::FileStorage accepts both).
+  // the colon (ReadMeiYaml accepts both).
   return StrCat(
       "%YAML:1.0\n---\nmodel_type: MEI\ncamera_name: ", camera.name, "\nimage_width: ", camera.width,
       "\nimage_height: ", camera.height, "\nmirror_parameters:\n   xi:", FormatDouble(p[0]),

@@ -81,10 +81,11 @@ Rigid3d PoseFromCam0(const Rigid3d& rig_from_rect0, const Eigen::Matrix3d& rect_
 Rigid3d PoseFromCam1(const Rigid3d& rig_from_rect1, const Eigen::Matrix3d& rect_00,
                      const Eigen::Matrix3d& rect_01);
 
-// image_02.yaml / image_03.yaml (OpenCV FileStorage YAML, MEI model) into a
-// camera (name, model, params xi k1 k2 p1 p2 gamma1 gamma2 u0 v0, size).
-// Throws InputError "<path>: missing calibration file", "<path>: key
-// projection_parameters/gamma1: missing", ... ; no OpenCV exception escapes.
+// image_02.yaml / image_03.yaml (OpenCV-style YAML: "%YAML:1.0" first line,
+// some keys without a space after the colon; MEI model) into a camera (name,
+// model, params xi k1 k2 p1 p2 gamma1 gamma2 u0 v0, size), read with yaml-cpp.
+// Throws InputError "<path>: missing calibration file",
+// "<path>:<line>: projection_parameters/gamma1: missing key", ...
 Camera ReadMeiYaml(const std::filesystem::path& path, const std::string& camera_name);
 // The same file's text, in the dataset's own quirky formatting.
 std::string MeiYamlText(const Camera& camera);

@@ -41,7 +41,10 @@ std::string Describe(const YAML::Node& node) {
 YamlFile LoadYamlFile(const std::filesystem::path& path, const std::string& what) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) MCVO_THROW_INPUT(path.string(), ": missing ", what);
-  std::string text = ReadFileToString(path);
+  return ParseYamlText(path, ReadFileToString(path));
+}
+
+YamlFile ParseYamlText(const std::filesystem::path& path, std::string text) {
   // OpenCV FileStorage writes "%YAML:1.0", which is not a YAML 1.x directive.
   if (text.rfind("%YAML:", 0) == 0) text[0] = '#';
   YamlFile file{path, YAML::Node()};

@@ -34,6 +34,8 @@ struct YamlFile {
 // error: ...". An OpenCV "%YAML:1.0" first line is accepted (blanked, so
 // line numbers are kept). The document must be a map.
 YamlFile LoadYamlFile(const std::filesystem::path& path, const std::string& what = "calibration file");
+// As LoadYamlFile, from the file's text (`path` names it in errors).
+YamlFile ParseYamlText(const std::filesystem::path& path, std::string text);
 
 // Throws InputError "<file>[:<line>]: <key_path>: <what>" (line from the node's mark).
 [[noreturn]] void ThrowYamlError(const YamlFile& file, const YAML::Node& node, const std::string& key_path,

@@ -25,8 +25,10 @@ void WriteFrameTable(const std::filesystem::path& path, const FrameTable& table)
 }
 
 FrameTable ReadFrameTable(const std::filesystem::path& path) {
-  const std::string text = ReadFileToString(path);
-  const std::string file = path.string();
+  return ParseFrameTable(ReadFileToString(path), path.string());
+}
+
+FrameTable ParseFrameTable(const std::string& text, const std::string& file) {
   std::istringstream in(text);
   std::string line;
   int line_number = 0;

@@ -43,10 +43,10 @@ std::vector<DataLine> DataLines(std::string_view content) {
 // Parses the fields of one line and reports errors as "<file>:<line>: ...".
 class LineParser {
  public:
-  LineParser(const std::filesystem::path& path, const DataLine& line) : path_(path), line_(line) {}
+  LineParser(const std::string& source, const DataLine& line) : source_(source), line_(line) {}
 
   [[noreturn]] void Fail(const std::string& what) const {
-    throw InputError(StrCat(path_.string(), ":", line_.line_number, ": ", what));
+    throw InputError(StrCat(source_, ":", line_.line_number, ": ", what));
   }
 
   double Number(std::string_view field, int column) const {
@@ -94,7 +94,7 @@ class LineParser {
   }
 
  private:
-  const std::filesystem::path& path_;
+  const std::string& source_;
   const DataLine& line_;
 };
 
@@ -170,7 +170,8 @@ int64_t DaysFromCivil(int64_t year, int64_t month, int64_t day) {
 }
 
 // "YYYY-MM-DD HH:MM:SS[.fraction]" (KITTI-360 timestamps.txt, taken as UTC)
-// to nanoseconds since the Unix epoch.
+// to nanoseconds since the Unix epoch. Years outside 1678..2261 do not fit
+// int64 nanoseconds and are no time (found by tests/fuzz/kitti360_calib_fuzz.cc).
 std::optional<int64_t> ParseDateTimeToNs(std::string_view text) {
   const std::vector<std::string_view> parts = SplitTokens(text, " T");
   if (parts.size() != 2) return std::nullopt;
@@ -182,8 +183,8 @@ std::optional<int64_t> ParseDateTimeToNs(std::string_view text) {
   const std::optional<int64_t> hour = ParseInt64(clock[0]), minute = ParseInt64(clock[1]);
   const std::optional<int64_t> second_ns = ParseSecondsToNs(clock[2]);
   if (!year || !month || !day || !hour || !minute || !second_ns) return std::nullopt;
-  if (*month < 1 || *month > 12 || *day < 1 || *day > 31 || *hour < 0 || *hour > 23 || *minute < 0 ||
-      *minute > 59 || *second_ns < 0 || *second_ns >= 61'000'000'000LL) {
+  if (*year < 1678 || *year > 2261 || *month < 1 || *month > 12 || *day < 1 || *day > 31 || *hour < 0 ||
+      *hour > 23 || *minute < 0 || *minute > 59 || *second_ns < 0 || *second_ns >= 61'000'000'000LL) {
     return std::nullopt;
   }
   const int64_t seconds = DaysFromCivil(*year, *month, *day) * 86400 + *hour * 3600 + *minute * 60;
@@ -216,9 +217,12 @@ std::string_view TrajectoryFormatName(TrajectoryFormat format) {
 }
 
 TrajectoryFormat DetectTrajectoryFormat(const std::filesystem::path& path) {
-  const std::string content = ReadFileToString(path);
+  return DetectTrajectoryFormatFromText(ReadFileToString(path), path.string());
+}
+
+TrajectoryFormat DetectTrajectoryFormatFromText(const std::string& content, const std::string& source) {
   const std::vector<DataLine> lines = DataLines(content);
-  if (lines.empty()) MCVO_THROW_INPUT(path.string(), ": no data lines, cannot detect the trajectory format");
+  if (lines.empty()) MCVO_THROW_INPUT(source, ": no data lines, cannot detect the trajectory format");
   const DataLine& first = lines.front();
   if (first.text.find(',') != std::string_view::npos) return TrajectoryFormat::kEuroc;
   const std::vector<std::string_view> fields = SplitTokens(first.text);
@@ -226,14 +230,17 @@ TrajectoryFormat DetectTrajectoryFormat(const std::filesystem::path& path) {
   if (fields.size() == 12) return TrajectoryFormat::kKitti;
   if ((fields.size() == 13 || fields.size() == 17) && ParseInt64(fields[0]))
     return TrajectoryFormat::kKittiIndexed;
-  MCVO_THROW_INPUT(path.string(), ":", first.line_number, ": cannot detect the trajectory format from ",
+  MCVO_THROW_INPUT(source, ":", first.line_number, ": cannot detect the trajectory format from ",
                    fields.size(),
                    " fields (expected 8 for TUM, 12 for KITTI, 13 or 17 with a leading frame index for "
                    "KITTI-360, or comma-separated EuRoC)");
 }
 
 Trajectory ReadTrajectory(const std::filesystem::path& path, TrajectoryFormat format) {
-  const std::string content = ReadFileToString(path);
+  return ParseTrajectory(ReadFileToString(path), path.string(), format);
+}
+
+Trajectory ParseTrajectory(const std::string& content, const std::string& source, TrajectoryFormat format) {
   const std::vector<DataLine> lines = DataLines(content);
   Trajectory trajectory;
   trajectory.has_time = format == TrajectoryFormat::kTum || format == TrajectoryFormat::kEuroc;
@@ -241,7 +248,7 @@ Trajectory ReadTrajectory(const std::filesystem::path& path, TrajectoryFormat fo
       format == TrajectoryFormat::kKitti || format == TrajectoryFormat::kKittiIndexed;
   trajectory.poses.reserve(lines.size());
   for (const DataLine& line : lines) {
-    const LineParser parser(path, line);
+    const LineParser parser(source, line);
     StampedPose pose;
     switch (format) {
       case TrajectoryFormat::kTum:

@@ -125,6 +125,10 @@ std::optional<int64_t> ParseSecondsToNs(std::string_view text) {
   for (size_t i = 0; i < 9; ++i) frac_ns = frac_ns * 10 + (i < frac_part.size() ? frac_part[i] - '0' : 0);
   // Round half up on the tenth fractional digit.
   if (frac_part.size() > 9 && frac_part[9] >= '5') frac_ns += 1;
+  // Ten integer digits can exceed int64 nanoseconds (9223372036.854775807 s):
+  // out of range is not a time (found by tests/fuzz/trajectory_fuzz.cc).
+  constexpr int64_t kMaxNs = std::numeric_limits<int64_t>::max();
+  if (seconds > (kMaxNs - frac_ns) / 1000000000LL) return std::nullopt;
   const int64_t ns = seconds * 1000000000LL + frac_ns;
   return negative ? -ns : ns;
 }

@@ -341,6 +341,23 @@ TEST(Kitti360, MalformedNumbers) {
   ExpectInputError(Options(root2), {"perspective.txt", "R_rect_00", "orthonormal"});
 }
 
+// Inputs found by tests/fuzz (docs/fuzzing.md).
+TEST(Kitti360, FuzzFindingsAreInputErrors) {
+  // cv::FileStorage, which read image_0N.yaml before, threw std::length_error
+  // on the first and never returned on the second.
+  const fs::path root = WriteFixture("fuzz_mei_yaml", 1);
+  WriteText(root / "calibration" / "image_02.yaml", "%YAML:1.\n k:0\n :");
+  ExpectInputError(Options(root), {"image_02.yaml:2: image_width: missing key"});
+  WriteText(root / "calibration" / "image_02.yaml", "%YAML:1.\n k:0\n %YAML:1.0\n:---\nm");
+  ExpectInputError(Options(root), {"image_02.yaml:", "YAML syntax error"});
+  // A year beyond int64 nanoseconds overflowed.
+  const fs::path root2 = WriteFixture("fuzz_timestamps_year", 1);
+  std::string times = Timestamps(1);
+  times.replace(0, 4, "20113");
+  WriteText(CameraDir(root2, "image_02") / "timestamps.txt", times);
+  ExpectInputError(Options(root2), {"image_02/timestamps.txt:1", "expected a time"});
+}
+
 TEST(Kitti360, CorruptOrTruncatedPng) {
   const fs::path root = WriteFixture("truncated_png");
   const fs::path png = ImagePath(root, "image_01", 1);

@@ -171,6 +171,29 @@ TEST(TrajectoryIo, ReadsKitti360PosesAndTimestamps) {
   }
 }
 
+// Found by tests/fuzz/kitti360_calib_fuzz.cc: a year whose time does not fit
+// int64 nanoseconds overflowed; now it is an error naming the file and line.
+TEST(TrajectoryIo, TimesOutsideInt64NanosecondsAreErrors) {
+  Trajectory trajectory;
+  trajectory.has_frame_index = true;
+  trajectory.poses.resize(2);
+  trajectory.poses[0].frame_index = 0;
+  trajectory.poses[1].frame_index = 1;
+  ApplyTimesFile(WriteTemp("range.txt", "1678-01-01 00:00:00\n2261-12-31 23:59:59.999999999\n"), &trajectory);
+  EXPECT_EQ(trajectory.poses[0].t_ns, -9214560000LL * 1000000000LL);
+  for (const std::string& times : {std::string("20113-05-28 08:46:02.223456789\n2013-05-28 08:46:02\n"),
+                                   std::string("1677-12-31 23:59:59\n2013-05-28 08:46:02\n"),
+                                   std::string("9223372036.854775808\n9223372037\n")}) {
+    try {
+      ApplyTimesFile(WriteTemp("out_of_range.txt", times), &trajectory);
+      ADD_FAILURE() << "no InputError for " << times;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("out_of_range.txt:1: expected a time"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(TrajectoryIo, ReadsKitti360Cam0ToWorld) {
   const std::filesystem::path path = WriteTemp(
       "cam0_to_world.txt", "5 1 0 0 1.5 0 1 0 2.5 0 0 1 3.5 0 0 0 1\n9 1 0 0 2 0 1 0 3 0 0 1 4 0 0 0 1\n");
@@ -242,6 +265,10 @@ TEST(TrajectoryIo, MalformedLinesNameFileAndLine) {
       {TrajectoryFormat::kEuroc, "#t\n1,0,0,0,1,0,0,0\n1,0,0,0,1,0,0,0\n", 3, "duplicate time"},
       {TrajectoryFormat::kEuroc, "#t\n1,0,,0,1,0,0,0\n", 2, "field 3: expected a number"},
       {TrajectoryFormat::kEuroc, "#t\n1,0,0,0,0.5,0,0,0\n", 2, "quaternion is not unit"},
+      // Found by tests/fuzz/trajectory_fuzz.cc: times beyond int64 nanoseconds overflowed.
+      {TrajectoryFormat::kTum, ok_tum + "9223372036.8547758077 1 0 0 0  0 1 0\n", 2,
+       "expected a time in seconds"},
+      {TrajectoryFormat::kTum, ok_tum + "9999999999 0 0 0 0 0 0 1\n", 2, "expected a time in seconds"},
   };
   for (size_t i = 0; i < cases.size(); ++i) {
     const MalformedCase& c = cases[i];

@@ -37,6 +37,12 @@ TEST(Strings, SecondsToNanosecondsIsExactThroughDigits) {
   EXPECT_EQ(ParseSecondsToNs("1.5e2"), 150000000000LL);
   EXPECT_FALSE(ParseSecondsToNs("1.2.3").has_value());
   EXPECT_FALSE(ParseSecondsToNs("x").has_value());
+  // The int64 range; beyond it is no time (found by tests/fuzz/trajectory_fuzz.cc).
+  EXPECT_EQ(ParseSecondsToNs("9223372036.854775807"), std::numeric_limits<int64_t>::max());
+  EXPECT_EQ(ParseSecondsToNs("-9223372036.854775807"), -std::numeric_limits<int64_t>::max());
+  EXPECT_FALSE(ParseSecondsToNs("9223372036.854775808").has_value());
+  EXPECT_FALSE(ParseSecondsToNs("9223372036.8547758075").has_value());  // rounds up past the end
+  EXPECT_FALSE(ParseSecondsToNs("9999999999").has_value());
   EXPECT_EQ(FormatNsAsSeconds(1369123456789LL), "1369.123456789");
   EXPECT_EQ(FormatNsAsSeconds(-500000000LL), "-0.500000000");
   EXPECT_EQ(*ParseSecondsToNs(FormatNsAsSeconds(1403636579763555584LL)), 1403636579763555584LL);

@@ -33,5 +33,7 @@ void WriteFrameTable(const std::filesystem::path& path, const FrameTable& table)
 // with the same number of fields, integer times strictly increasing, no
 // commas or blanks in paths. Errors: InputError "<file>:<line>: <what>".
 FrameTable ReadFrameTable(const std::filesystem::path& path);
+// As ReadFrameTable, from the file's text; `source` names it in errors.
+FrameTable ParseFrameTable(const std::string& text, const std::string& source);
 
 }  // namespace mcvo

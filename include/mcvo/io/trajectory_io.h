@@ -41,6 +41,8 @@ std::string_view TrajectoryFormatName(TrajectoryFormat format);
 // Guesses the format from the first data line (number of fields, commas).
 // Throws InputError naming the file when no format fits.
 TrajectoryFormat DetectTrajectoryFormat(const std::filesystem::path& path);
+// As DetectTrajectoryFormat, from the file's text; `source` names it in errors.
+TrajectoryFormat DetectTrajectoryFormatFromText(const std::string& content, const std::string& source);
 
 // Reads a trajectory. Malformed lines throw InputError "<file>:<line>: <what>".
 // Lines starting with '#' and blank lines are skipped. Non-finite numbers,
@@ -51,6 +53,8 @@ TrajectoryFormat DetectTrajectoryFormat(const std::filesystem::path& path);
 // order: a duplicate or a step back is an error. KITTI-indexed also accepts
 // index + 16 numbers (KITTI-360 cam0_to_world.txt, last row 0 0 0 1).
 Trajectory ReadTrajectory(const std::filesystem::path& path, TrajectoryFormat format);
+// As ReadTrajectory, from the file's text; `source` names it in errors.
+Trajectory ParseTrajectory(const std::string& content, const std::string& source, TrajectoryFormat format);
 
 // Reads a KITTI-style times file (one time per line, line i = frame i: either
 // seconds, as KITTI times.txt, or "YYYY-MM-DD HH:MM:SS.fraction" taken as UTC,
