@@ -108,6 +108,17 @@ std::string Config(const fs::path& w, const std::string& json) {
   return " --config " + Quote((w / "config.json").string());
 }
 
+// Appends a copy of the rig's first camera, named `name`, to its camera list.
+void AppendCopyOfFirstCamera(const fs::path& rig_json, const std::string& name) {
+  const std::string rig = Read(rig_json);
+  const size_t first = rig.find('{', rig.find('['));
+  const size_t list_end = rig.rfind(']');
+  const size_t last_camera_end = rig.rfind('}', list_end);
+  std::string camera = rig.substr(first, last_camera_end - first + 1);
+  camera = std::regex_replace(camera, std::regex("\"name\": \"[^\"]*\""), "\"name\": \"" + name + "\"");
+  Write(rig_json, rig.substr(0, last_camera_end + 1) + ", " + camera + rig.substr(list_end - 1));
+}
+
 std::vector<Case> Catalogue() {
   std::vector<Case> c;
   // rig.json
@@ -148,22 +159,13 @@ std::vector<Case> Catalogue() {
                3, {"{d}/rig.json", "/cameras/0/model", "fisheye624"}});
   c.push_back({"rig_duplicate_names",
                [](auto d, auto, auto out) {
-                 const std::string rig = Read(d / "rig.json");
-                 const size_t a = rig.find('{', rig.find('['));
-                 const size_t b = rig.rfind(']');
-                 const std::string camera = rig.substr(a, rig.rfind('}', b) - a + 1);
-                 Write(d / "rig.json", rig.substr(0, rig.rfind('}', b) + 1) + ", " + camera + rig.substr(b - 1));
+                 AppendCopyOfFirstCamera(d / "rig.json", "image_00");
                  return RunArgs(d, out);
                },
                3, {"{d}/rig.json", "/cameras/1/name", "duplicate camera name"}});
   c.push_back({"rig_camera_count_not_frames",
                [](auto d, auto, auto out) {
-                 const std::string rig = Read(d / "rig.json");
-                 const size_t a = rig.find('{', rig.find('['));
-                 const size_t b = rig.rfind(']');
-                 std::string camera = rig.substr(a, rig.rfind('}', b) - a + 1);
-                 camera = std::regex_replace(camera, std::regex("image_00"), "image_01");
-                 Write(d / "rig.json", rig.substr(0, rig.rfind('}', b) + 1) + ", " + camera + rig.substr(b - 1));
+                 AppendCopyOfFirstCamera(d / "rig.json", "image_01");
                  return RunArgs(d, out);
                },
                3, {"{d}/frames.csv:1", "image_01"}});
