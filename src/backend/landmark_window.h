@@ -24,7 +24,7 @@
 #include "mcvo/backend/estimator.h"
 #include "mcvo/backend/factors.h"
 #include "mcvo/geometry/rigid3d.h"
-#include "mcvo/initializer/observations.h"
+#include "mcvo/map/observations.h"
 #include "mcvo/map/sparse_map.h"
 
 namespace mcvo::backend_internal {

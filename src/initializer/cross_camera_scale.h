@@ -15,7 +15,7 @@
 #include "mcvo/camera/camera.h"
 #include "mcvo/initializer/camera_sfm.h"
 #include "mcvo/initializer/initializer.h"
-#include "mcvo/initializer/observations.h"
+#include "mcvo/map/observations.h"
 #include "mcvo/initializer/rig_scale.h"
 
 namespace mcvo::initializer_internal {

@@ -16,7 +16,7 @@
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/frontend/frontend_options.h"
 #include "mcvo/frontend/multi_camera_tracker.h"
-#include "mcvo/initializer/observations.h"
+#include "mcvo/map/observations.h"
 
 namespace mcvo::pipeline_internal {
 

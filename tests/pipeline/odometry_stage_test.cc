@@ -129,13 +129,16 @@ TEST(OdometryStageTest, FallbackInitialisesWhenNoWindowMeetsTheStrictBound) {
   // bound no window can meet leaves the sequence unposed, and the fallback
   // runs it again with max_relative_scale_sigma_fallback.
   const Rig rig = LoadPresetRig("kitti360_3cam");
-  const SyntheticRigTracks truth = Drive(rig, 100, false);
+  // 60 frames: the 20-frame straight, the 30-frame corner and 10 after it
+  // (every initialiser pass over a sequence that never initialises costs:
+  // this test makes three).
+  const SyntheticRigTracks truth = Drive(rig, 60, false);
   PipelineOptions options = Options();
   options.initializer.max_relative_scale_sigma = 1e-4;
   options.initializer.max_relative_scale_sigma_fallback = 0.05;
   const OdometryOutput out = RunStage(rig, truth.frames, options);
   EXPECT_EQ(out.fallback_sigma, 0.05);
-  EXPECT_GE(out.poses.size(), 99u);
+  EXPECT_GE(out.poses.size(), 59u);
   bool noted = false;
   for (const ScaleLogEntry& e : out.scale_log) {
     if (e.event == "init") noted = e.note.find("offline fallback") != std::string::npos;

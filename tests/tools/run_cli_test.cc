@@ -40,7 +40,7 @@ const fs::path& Dataset() {
   static const fs::path dir = [] {
     std::string error;
     const fs::path seq = mcvo::test::CachedSynth("--preset kitti360 --frames " + std::to_string(kFrames) +
-                                                     " --image-scale 0.5 --samples 1 --blackout image_03:20:10",
+                                                     " --image-scale 0.35 --samples 1 --blackout image_03:20:10",
                                                  &error);
     EXPECT_FALSE(seq.empty()) << error;
     return seq;

@@ -65,7 +65,7 @@
 #include "mcvo/map/sparse_map.h"
 #include "mcvo/geometry/rigid3d.h"
 #include "mcvo/initializer/initializer.h"
-#include "mcvo/initializer/observations.h"
+#include "mcvo/map/observations.h"
 
 namespace mcvo {
 

@@ -3,7 +3,7 @@
 // The known extrinsics give the initial guess and the geometric check, so a
 // match is a point seen by two cameras with a metric baseline between them:
 // the estimator's source of metric scale and of landmarks tying cameras
-// together (initializer/observations.h, CrossCameraObservation).
+// together (map/observations.h, CrossCameraObservation).
 //
 // The warp W: a's pixel u -> b's pixel Project_b(b_from_a * (d0 f_a(u))),
 // f_a = Unproject_a (unit), d0 = init_distance_m (a distance along the ray,

@@ -84,7 +84,7 @@
 #include "mcvo/camera/camera.h"
 #include "mcvo/geometry/rigid3d.h"
 #include "mcvo/initializer/camera_sfm.h"
-#include "mcvo/initializer/observations.h"
+#include "mcvo/map/observations.h"
 #include "mcvo/initializer/rig_consistency.h"
 #include "mcvo/initializer/rig_scale.h"
 

@@ -38,7 +38,7 @@
 
 #include "mcvo/camera/camera.h"
 #include "mcvo/initializer/initializer.h"
-#include "mcvo/initializer/observations.h"
+#include "mcvo/map/observations.h"
 
 namespace mcvo {
 

@@ -4,7 +4,8 @@
 // camera of the same frame (overlapping views). Built from the frontend's
 // MultiCameraFrame by the pipeline; the estimator never touches images or
 // camera models, so every camera model (fisheyes beyond 90 deg included)
-// is handled the same way.
+// is handled the same way. Data only, in module map (below initializer,
+// backend, loop and pipeline, which share it).
 #pragma once
 
 #include <cstdint>
