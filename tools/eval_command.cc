@@ -14,6 +14,7 @@
 #include "mcvo/eval/report.h"
 #include "mcvo/eval/report_html.h"
 #include "mcvo/io/trajectory_io.h"
+#include "mcvo/pipeline/run_manifest.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
@@ -50,17 +51,9 @@ RunFacts ReadRunFacts(const std::filesystem::path& est_path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(run_json, ec)) return facts;
   try {
-    const nlohmann::json run = nlohmann::json::parse(ReadFileToString(run_json));
-    if (!run.is_object() || !run.contains("result") || !run["result"].is_object()) return facts;
-    const nlohmann::json& result = run["result"];
-    facts.scale_arbitrary = result.contains("scale") && result["scale"] == "arbitrary";
-    if (result.contains("trajectory_origin_in_rig_m")) {
-      const nlohmann::json& c = result["trajectory_origin_in_rig_m"];
-      if (c.is_array() && c.size() == 3 && c[0].is_number() && c[1].is_number() && c[2].is_number()) {
-        const Eigen::Vector3d origin(c[0].get<double>(), c[1].get<double>(), c[2].get<double>());
-        if (origin.allFinite()) facts.origin_in_rig_m = origin;
-      }
-    }
+    const RunHeadline headline = RunManifest::Read(run_json).Headline();
+    facts.scale_arbitrary = headline.scale_arbitrary;
+    facts.origin_in_rig_m = headline.trajectory_origin_in_rig_m;
   } catch (const std::exception&) {
     return RunFacts();
   }

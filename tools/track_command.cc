@@ -24,6 +24,7 @@
 #include "mcvo/frontend/multi_camera_tracker.h"
 #include "mcvo/frontend/track_file.h"
 #include "mcvo/io/json_util.h"
+#include "mcvo/pipeline/frame_source.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
@@ -118,6 +119,7 @@ void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const st
       "(the work of one frame on one core; cross_camera: summed over camera pairs); track_wall is the wall "
       "time of MultiCameraTracker::Track (cameras, then camera pairs, in parallel); decode_wait is the time "
       "the tracking thread was blocked waiting for decoded images (0 when the decoding threads keep up); "
+      "write is the time of the writing thread, which runs beside the tracking thread; "
       "total is the wall time per frame.";
   json["detector"] = detector;
   json["selection"] = selection;
@@ -202,9 +204,12 @@ int RunTrack(int argc, const char* const* argv) {
   DatasetOptions dataset_options = MakeDatasetOptions(dataset);
   if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
   const DatasetIndex index = OpenDataset(dataset_options);
-  // Start-up: builds each camera's detector (model file and layout checked
-  // here), before any image is decoded.
-  MultiCameraTracker tracker(index.rig, index.masks, options.frontend, worker_threads);
+  // Start-up: the frame source builds each camera's detector (model file
+  // and layout checked here), before any image is decoded. It is `mcvo
+  // run`'s: the frontend on a producer thread ahead of this one, which
+  // writes the track file.
+  FrameSource source(index, options.frontend, /*tracks=*/{}, worker_threads);
+  const MultiCameraTracker& tracker = *source.tracker();
   const int descriptor_size = tracker.DescriptorSize();
 
   for (const std::string& line : index.log) MCVO_LOG(kInfo, "dataset: ", line);
@@ -242,25 +247,18 @@ int RunTrack(int argc, const char* const* argv) {
   }
   MCVO_LOG(kInfo, "track: cross-camera matching of ",
            pair_names.empty() ? std::string("no camera pairs") : "the pairs " + pair_names);
-  FrameStreamOptions stream_options;
-  stream_options.threads = worker_threads;
-  FrameStream stream(index, stream_options);
   ProgressBar progress("track", total_frames, "frames");
   RunTotals totals;
   const Clock::time_point run_start = Clock::now();
-  while (totals.frames < total_frames) {
-    Clock::time_point start = Clock::now();
-    std::optional<FrameImages> images = stream.Next();
-    totals.decode_wait += SecondsSince(start);
-    if (!images) break;
-    start = Clock::now();
-    const MultiCameraFrame frame = tracker.Track(images->index, images->t_ns, images->images);
-    totals.track_wall += SecondsSince(start);
-    start = Clock::now();
-    writer.Write(frame);
-    AppendStatsRows(frame, index.rig, &csv);
+  source.Start(total_frames);
+  while (std::optional<FrontendItem> item = source.Next()) {
+    totals.decode_wait += item->decode_wait_seconds;
+    totals.track_wall += item->track_seconds;
+    const Clock::time_point start = Clock::now();
+    writer.Write(item->frame);
+    AppendStatsRows(item->frame, index.rig, &csv);
     totals.write += SecondsSince(start);
-    totals.Add(frame);
+    totals.Add(item->frame);
     progress.Update(totals.frames);
   }
   progress.Finish();
@@ -273,7 +271,7 @@ int RunTrack(int argc, const char* const* argv) {
   if (!timing_path.empty()) {
     WriteTiming(timing_path, totals, header.detector,
                 EnumToName(kFeatureSelectionNames, options.frontend.selection), index.rig.NumCameras(),
-                worker_threads, stream_options.threads);
+                worker_threads, worker_threads);
   }
   MCVO_LOG(kInfo, "track: ", totals.frames, " frames in ", FormatFixed(totals.total, 2), " s (",
            FormatFixed(totals.frames / std::max(totals.total, 1e-9), 2), " fps); mean track length ",

@@ -16,6 +16,7 @@
 #include "mcvo/config/config.h"
 #include "mcvo/io/json_util.h"
 #include "mcvo/pipeline/run.h"
+#include "mcvo/pipeline/run_manifest.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
@@ -104,22 +105,21 @@ Json ComparableConfig(Json config) {
   return config;
 }
 
-std::optional<Json> ReadRunJson(const fs::path& run_dir) {
+std::optional<RunManifest> ReadRunManifest(const fs::path& run_dir) {
   const fs::path path = run_dir / "run.json";
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return std::nullopt;
   try {
-    Json run = io_internal::ReadJsonFile(path);
-    if (run.is_object()) return run;
+    return RunManifest::Read(path);
   } catch (const InputError&) {
   }
   return std::nullopt;
 }
 
-std::optional<std::string> ConfigDifference(const Json& run, const PipelineOptions& options) {
-  if (!run.contains("config")) return std::string("run.json has no config");
+std::optional<std::string> ConfigDifference(const RunManifest& run, const PipelineOptions& options) {
+  if (!run.Has("config")) return std::string("run.json has no config");
   const Json current = ComparableConfig(Json::parse(PipelineOptionsToJson(options)));
-  if (auto d = FirstDifference(current, ComparableConfig(run["config"]), "")) {
+  if (auto d = FirstDifference(current, ComparableConfig(Json(run.config)), "")) {
     return "config changed at " + *d;
   }
   return std::nullopt;
@@ -134,33 +134,34 @@ DatasetOptions RunDataset(const BatchRunSpec& spec, const PipelineOptions& optio
 
 // Numbers of the summary from a finished run folder.
 void ReadRunNumbers(const fs::path& run_dir, BatchRunResult* result) {
-  const std::optional<Json> run = ReadRunJson(run_dir);
-  if (!run || !run->contains("result") || !(*run)["result"].is_object()) return;
-  const Json& r = (*run)["result"];
-  auto number = [](const Json& object, const char* key, double* value) {
-    if (!object.is_object() || !object.contains(key) || !object[key].is_number()) return false;
-    *value = object[key].get<double>();
-    return true;
-  };
-  double value = 0.0;
+  const std::optional<RunManifest> run = ReadRunManifest(run_dir);
+  if (!run || !run->Has("result")) return;
+  const RunHeadline h = run->Headline();
   result->has_result = true;
-  if (number(r, "frames", &value)) result->frames = static_cast<int>(value);
-  if (number(r, "posed_frames", &value)) result->posed_frames = static_cast<int>(value);
-  if (number(r, "segments", &value)) result->segments = static_cast<int>(value);
-  if (r.contains("warning") && r["warning"].is_string()) result->warning = r["warning"].get<std::string>();
-  result->evaluated = number(r, "ate_rmse_m", &result->ate_rmse_m);
-  number(r, "ate_percent_of_path", &result->ate_percent_of_path);
-  result->scale_arbitrary = r.contains("scale") && r["scale"] == "arbitrary";
-  number(r, "scale_error_percent", &result->scale_error_percent);
-  if (run->contains("timing")) number((*run)["timing"], "frames_per_second", &result->frames_per_second);
+  result->frames = h.frames;
+  result->posed_frames = h.posed_frames;
+  result->segments = h.segments;
+  if (h.warning) result->warning = *h.warning;
+  result->evaluated = h.ate_rmse_m.has_value();
+  result->ate_rmse_m = h.ate_rmse_m.value_or(result->ate_rmse_m);
+  result->ate_percent_of_path = h.ate_percent_of_path.value_or(result->ate_percent_of_path);
+  result->scale_arbitrary = h.scale_arbitrary;
+  result->scale_error_percent = h.scale_error_percent.value_or(result->scale_error_percent);
+  result->frames_per_second = h.frames_per_second.value_or(result->frames_per_second);
   // RPE: run.json's result when it carries it, else the run's eval/eval.json.
-  if (number(r, "rpe_translation_percent", &result->rpe_translation_percent) &&
-      number(r, "rpe_rotation_deg_per_100m", &result->rpe_rotation_deg_per_100m)) {
+  if (h.rpe_translation_percent && h.rpe_rotation_deg_per_100m) {
+    result->rpe_translation_percent = *h.rpe_translation_percent;
+    result->rpe_rotation_deg_per_100m = *h.rpe_rotation_deg_per_100m;
     result->has_rpe = true;
     return;
   }
   std::error_code ec;
   if (!fs::is_regular_file(run_dir / "eval" / "eval.json", ec)) return;
+  auto number = [](const Json& object, const char* key, double* value) {
+    if (!object.is_object() || !object.contains(key) || !object[key].is_number()) return false;
+    *value = object[key].get<double>();
+    return true;
+  };
   try {
     const Json eval = io_internal::ReadJsonFile(run_dir / "eval" / "eval.json");
     if (!eval.contains("rpe") || !eval["rpe"].contains("average")) return;
@@ -276,7 +277,7 @@ BatchRunResult GatherRun(const BatchRunSpec& spec, const BatchOptions& options) 
     return result;
   }
   try {
-    const std::optional<Json> run = ReadRunJson(run_dir);
+    const std::optional<RunManifest> run = ReadRunManifest(run_dir);
     if (!run) MCVO_THROW_INPUT((run_dir / "run.json").string(), ": does not parse");
     if (std::optional<std::string> reason = ConfigDifference(*run, BatchRunOptions(spec, options.jobs))) {
       result.status = BatchRunStatus::kStale;
@@ -450,39 +451,29 @@ PipelineOptions BatchRunOptions(const BatchRunSpec& spec, int jobs) {
 
 std::optional<std::string> RunOutOfDateReason(const fs::path& run_dir, const BatchRunSpec& spec,
                                               const PipelineOptions& options) {
-  const std::optional<Json> run = ReadRunJson(run_dir);
+  const std::optional<RunManifest> run = ReadRunManifest(run_dir);
   if (!run) return std::string("no readable run.json");
   if (std::optional<std::string> reason = ConfigDifference(*run, options)) return reason;
-  const Json* build = run->contains("build") && (*run)["build"].is_object() ? &(*run)["build"] : nullptr;
-  if (build == nullptr || !build->contains("executable_sha256") ||
-      (*build)["executable_sha256"] != ExecutableSha256()) {
+  if (run->executable_sha256 != ExecutableSha256()) {
     return std::string("made by another mcvo build (run.json build.executable_sha256)");
   }
-  if (!run->contains("outputs_sha256") || !(*run)["outputs_sha256"].is_object()) {
-    return std::string("run.json lists no outputs");
-  }
-  for (const auto& item : (*run)["outputs_sha256"].items()) {
-    const fs::path file = run_dir / item.key();
+  if (!run->Has("outputs_sha256")) return std::string("run.json lists no outputs");
+  for (const auto& [name, hash] : run->outputs_sha256) {
+    const fs::path file = run_dir / name;
     std::error_code ec;
-    if (!fs::is_regular_file(file, ec)) return "output " + item.key() + " is missing";
-    if (!item.value().is_string() || Sha256File(file) != item.value().get<std::string>()) {
-      return "output " + item.key() + " was changed";
-    }
+    if (!fs::is_regular_file(file, ec)) return "output " + name + " is missing";
+    if (Sha256File(file) != hash) return "output " + name + " was changed";
   }
   const DatasetIndex index = OpenRunDataset(RunDataset(spec, options));
   const int dataset_frames = static_cast<int>(index.frames.size());
   const int frames = spec.max_frames > 0 ? std::min(spec.max_frames, dataset_frames) : dataset_frames;
-  const Json& dataset = run->contains("dataset") ? (*run)["dataset"] : Json();
-  if (!dataset.is_object() || dataset.value("frames", -1) != frames) {
-    return StrCat("frame count changed (now ", frames, ")");
-  }
-  if (!run->contains("inputs") || !(*run)["inputs"].is_object())
-    return std::string("run.json lists no inputs");
-  const Json& recorded = (*run)["inputs"];
+  if (run->dataset.frames != frames) return StrCat("frame count changed (now ", frames, ")");
+  if (!run->Has("inputs")) return std::string("run.json lists no inputs");
   const auto current = HashRunInputs(index, spec.tracks, frames, RunVocabularyPath(options));
-  if (recorded.size() != current.size()) return std::string("inputs changed");
+  if (run->inputs.size() != current.size()) return std::string("inputs changed");
   for (const auto& [key, hash] : current) {
-    if (!recorded.contains(key) || recorded[key] != hash) return "inputs changed (" + key + ")";
+    auto it = run->inputs.find(key);
+    if (it == run->inputs.end() || it->second != hash) return "inputs changed (" + key + ")";
   }
   return std::nullopt;
 }

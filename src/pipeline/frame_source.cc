@@ -1,4 +1,4 @@
-#include "frame_source.h"
+#include "mcvo/pipeline/frame_source.h"
 
 #include <chrono>
 #include <condition_variable>
@@ -13,7 +13,7 @@
 #include "mcvo/frontend/track_file.h"
 #include "mcvo/util/error.h"
 
-namespace mcvo::pipeline_internal {
+namespace mcvo {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -95,7 +95,8 @@ struct FrameSource::Impl {
           const Clock::time_point start = Clock::now();
           std::optional<MultiCameraFrame> frame = track_reader->Next();
           if (!frame) break;
-          queue.Push({std::move(*frame), SecondsSince(start)});
+          const double seconds = SecondsSince(start);
+          queue.Push({std::move(*frame), 0.0, seconds, seconds});
           ++produced;
         }
       } else {
@@ -106,9 +107,11 @@ struct FrameSource::Impl {
         while (produced < total_frames && !queue.cancelled()) {
           const Clock::time_point start = Clock::now();
           std::optional<FrameImages> images = stream.Next();
+          const double decode_wait = SecondsSince(start);
           if (!images) break;
+          const Clock::time_point track_start = Clock::now();
           MultiCameraFrame frame = tracker->Track(images->index, images->t_ns, images->images);
-          queue.Push({std::move(frame), SecondsSince(start)});
+          queue.Push({std::move(frame), decode_wait, SecondsSince(track_start), SecondsSince(start)});
           ++produced;
         }
       }
@@ -152,6 +155,8 @@ void FrameSource::Start(int frames) {
 
 std::optional<FrontendItem> FrameSource::Next() { return impl_->queue.Pop(); }
 
+const MultiCameraTracker* FrameSource::tracker() const { return impl_->tracker.get(); }
+
 RigFrameObservations ToObservations(const Rig& rig, const MultiCameraFrame& frame) {
   RigFrameObservations obs;
   obs.frame_index = frame.frame_index;
@@ -179,4 +184,4 @@ RigFrameObservations ToObservations(const Rig& rig, const MultiCameraFrame& fram
   return obs;
 }
 
-}  // namespace mcvo::pipeline_internal
+}  // namespace mcvo

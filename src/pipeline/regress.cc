@@ -12,6 +12,7 @@
 
 #include "mcvo/io/json_util.h"
 #include "mcvo/io/trajectory_io.h"
+#include "mcvo/pipeline/run_manifest.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/strings.h"
@@ -122,15 +123,15 @@ FileComparison CompareFile(const std::string& file, const fs::path& baseline, co
   return result;
 }
 
-Json ReadRunFolderJson(const fs::path& dir, const std::string& role) {
+RunManifest ReadRunFolderManifest(const fs::path& dir, const std::string& role) {
   const fs::path path = dir / "run.json";
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) MCVO_THROW_INPUT(dir.string(), ": ", role, " folder does not exist");
   if (!fs::is_regular_file(path, ec)) {
     MCVO_THROW_INPUT(dir.string(), ": ", role, " is not a run folder (no run.json)");
   }
-  Json run = io_internal::ReadJsonFile(path);
-  if (!run.is_object() || !run.contains("outputs_sha256") || !run["outputs_sha256"].is_object()) {
+  RunManifest run = RunManifest::Read(path);
+  if (!run.Has("outputs_sha256")) {
     MCVO_THROW_INPUT(path.string(), ": /outputs_sha256: missing (not a run.json of mcvo run)");
   }
   return run;
@@ -253,11 +254,11 @@ const char* FileVerdictName(FileVerdict verdict) {
 
 RegressReport CompareRunFolders(const fs::path& baseline, const fs::path& candidate,
                                 const RegressOptions& options) {
-  const Json run_a = ReadRunFolderJson(baseline, "baseline");
-  const Json run_b = ReadRunFolderJson(candidate, "candidate");
+  const RunManifest run_a = ReadRunFolderManifest(baseline, "baseline");
+  const RunManifest run_b = ReadRunFolderManifest(candidate, "candidate");
   std::set<std::string> files;
-  for (const Json* run : {&run_a, &run_b}) {
-    for (const auto& item : (*run)["outputs_sha256"].items()) files.insert(item.key());
+  for (const RunManifest* run : {&run_a, &run_b}) {
+    for (const auto& [file, hash] : run->outputs_sha256) files.insert(file);
   }
   auto ignored = [&](const std::string& file) {
     for (const char* pattern : kIgnoredFiles) {

@@ -10,11 +10,11 @@
 #include <utility>
 #include <vector>
 
-#include "frame_source.h"
 #include "loop_stage.h"
 #include "mcvo/eval/evaluate.h"
 #include "mcvo/io/rig_io.h"
 #include "mcvo/loop/vocabulary.h"
+#include "mcvo/pipeline/frame_source.h"
 #include "mcvo/util/enum_names.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
@@ -173,7 +173,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   // Frame source and vocabulary, set up before anything is decoded so that
   // a bad model, a mismatched track file or a bad vocabulary is reported at
   // start-up.
-  pipeline_internal::FrameSource source(index, options.frontend, request.tracks, threads);
+  FrameSource source(index, options.frontend, request.tracks, threads);
   const std::filesystem::path vocabulary_path = RunVocabularyPath(options);
   std::optional<Vocabulary> vocabulary;
   if (options.loop.enabled) vocabulary = Vocabulary::Load(vocabulary_path);
@@ -205,8 +205,8 @@ RunSummary RunPipeline(const RunRequest& request) {
   RunSummary summary;
   ProgressBar progress("run", total_frames, "frames");
   const Clock::time_point run_start = Clock::now();
-  while (std::optional<pipeline_internal::FrontendItem> item = source.Next()) {
-    odometry_stage.Add(pipeline_internal::ToObservations(rig, item->frame), item->seconds);
+  while (std::optional<FrontendItem> item = source.Next()) {
+    odometry_stage.Add(ToObservations(rig, item->frame), item->seconds);
     ++summary.frames;
     progress.Update(summary.frames);
   }

@@ -15,6 +15,7 @@
 #include "mcvo/eval/report_html.h"
 #include "mcvo/io/json_util.h"
 #include "mcvo/io/trajectory_io.h"
+#include "mcvo/pipeline/run_manifest.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
@@ -426,35 +427,27 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
   }
 
   // run.json: what was run, on what, what came out.
-  Json run;
-  run["program"] = "mcvo";
-  run["version"] = request.version;
-  // The build that made the outputs: `mcvo batch` runs a run again when it
-  // changes (a new build may pose differently); `mcvo regress` ignores it.
-  run["build"] = Json{{"executable_sha256", ExecutableSha256()}};
-  run["command_line"] = request.command_line;
-  run["config_source"] = request.config_source;
-  run["config"] = recorded_config;
-  Json dataset;
-  dataset["root"] = index.root.string();
-  dataset["format"] = index.format;
-  dataset["name"] = index.name;
-  dataset["frames"] = in.total_frames;
-  Json cameras = Json::array();
-  for (const Camera& camera : rig.cameras) cameras.push_back(camera.name);
-  dataset["cameras"] = cameras;
-  run["dataset"] = dataset;
-  Json inputs;
+  RunManifest run;
+  run.version = request.version;
+  run.executable_sha256 = ExecutableSha256();
+  run.command_line = request.command_line;
+  run.config_source = request.config_source;
+  run.config = recorded_config;
+  run.dataset.root = index.root.string();
+  run.dataset.format = index.format;
+  run.dataset.name = index.name;
+  run.dataset.frames = in.total_frames;
+  for (const Camera& camera : rig.cameras) run.dataset.cameras.push_back(camera.name);
   const DatasetIndex& opened = in.opened != nullptr ? *in.opened : index;
   for (const auto& [key, hash] : HashRunInputs(opened, request.tracks, in.total_frames, in.vocabulary_path)) {
-    inputs[key] = hash;
+    run.inputs[key] = hash;
   }
-  run["inputs"] = inputs;
-  run["outputs_sha256"] = OutputsSha256(dir);
-  run["result"] = ResultJson(in, *summary, evals);
-  if (!colmap_json.is_null()) run["colmap"] = colmap_json;
-  run["timing"] = TimingJson(in, *summary, colmap_seconds);
-  WriteFileAtomic(dir / "run.json", io_internal::PrettyJson(run));
+  const Json outputs = OutputsSha256(dir);
+  for (const auto& item : outputs.items()) run.outputs_sha256[item.key()] = item.value().get<std::string>();
+  run.result = ResultJson(in, *summary, evals);
+  run.colmap = colmap_json;
+  run.timing = TimingJson(in, *summary, colmap_seconds);
+  WriteFileAtomic(dir / "run.json", io_internal::PrettyJson(run.ToJson()));
 }
 
 }  // namespace mcvo::pipeline_internal

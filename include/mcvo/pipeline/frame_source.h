@@ -1,7 +1,8 @@
-// The frame source of `mcvo run` (private to pipeline/): the frontend on
-// images (MultiCameraTracker over a FrameStream) or the replay of a track
-// file of `mcvo track`, on a producer thread of its own, a bounded queue
-// ahead of the odometry stage that consumes it in frame order. Everything
+// The frame source of `mcvo run` and `mcvo track`: the frontend on images
+// (MultiCameraTracker over a FrameStream, which decodes ahead on threads of
+// its own) or the replay of a track file of `mcvo track`, on a producer
+// thread of its own, a bounded queue ahead of the consumer (the odometry
+// stage; the track file writer), which takes the frames in frame order. Everything
 // that can be wrong with the source (a track file of other cameras, a
 // detector model that does not load) is found by the constructor, before
 // any frame is decoded; an error while producing reaches the consumer from
@@ -18,12 +19,16 @@
 #include "mcvo/frontend/multi_camera_tracker.h"
 #include "mcvo/map/observations.h"
 
-namespace mcvo::pipeline_internal {
+namespace mcvo {
 
 // A frame from the frontend (tracked now, or read from a track file) and the
-// wall time it took.
+// wall time it took on the producer thread: waiting for its decoded images
+// (0 when decoding keeps ahead), tracking (or reading it from the file), and
+// both together.
 struct FrontendItem {
   MultiCameraFrame frame;
+  double decode_wait_seconds = 0.0;
+  double track_seconds = 0.0;
   double seconds = 0.0;
 };
 
@@ -44,6 +49,9 @@ class FrameSource {
   // The next frame in order; nullopt at the end. Rethrows the producer's
   // exception.
   std::optional<FrontendItem> Next();
+  // The tracker of images (its detector and camera pairs); null when a
+  // track file is replayed. Its Track is called on the producer thread only.
+  const MultiCameraTracker* tracker() const;
 
  private:
   struct Impl;
@@ -55,4 +63,4 @@ class FrameSource {
 // the cross-camera matches likewise.
 RigFrameObservations ToObservations(const Rig& rig, const MultiCameraFrame& frame);
 
-}  // namespace mcvo::pipeline_internal
+}  // namespace mcvo
