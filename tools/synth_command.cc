@@ -29,7 +29,8 @@ int RunSynth(int argc, const char* const* argv) {
                  "kitti360 | kitti360-3cam | stereo | mono | multicam6 | irregular5 (rig + default scene)");
   args.AddString("rig", &rig_path, "FILE", "a rig.json instead of a preset (needs --scene)");
   args.AddString("scene", &options.scene, "NAME",
-                 "urban | urban_block | urban_repeated | indoor | open (default: the preset's)");
+                 "urban | urban_block | urban_small_block | urban_repeated | urban_small_repeated | indoor | open "
+                 "(default: the preset's)");
   args.AddString("out", &out_dir, "DIR", "output folder (must not exist or be empty, unless --force)", true);
   args.AddInt("frames", &options.frames,
               "number of frames; 0: the whole route once (a closed route repeats past its end)");
@@ -56,7 +57,8 @@ int RunSynth(int argc, const char* const* argv) {
   args.AddFlag("force", &options.force, "replace a non-empty output folder");
   args.AddEpilog(
       "Moving objects are part of the urban scenes. urban_block is a short closed lap around one block\n"
-      "(loop closure), urban_repeated an open route past look-alike facades (no true loops). Examples:\n"
+      "(loop closure), urban_repeated an open route past look-alike facades (no true loops); their\n"
+      "_small_ versions have smaller blocks (shorter sequences for quick checks). Examples:\n"
       "  mcvo synth --preset kitti360 --out seq/kitti360 --frames 200 --image-scale 0.5\n"
       "  mcvo synth --preset kitti360 --scene urban_block --laps 1.3 --image-scale 0.25 --out seq/loop\n"
       "  mcvo synth --rig my_rig.json --scene indoor --out seq/lab --noise 2 --vignetting\n");

@@ -156,14 +156,17 @@ std::vector<BoxSpec> TreeBoxes(const Eigen::Vector2d& center, double crown_size,
 }  // namespace internal
 
 const std::vector<std::string>& SceneNames() {
-  static const std::vector<std::string> names = {"urban", "urban_block", "urban_repeated", "indoor", "open"};
+  static const std::vector<std::string> names = {"urban",          "urban_block", "urban_small_block",
+                                                   "urban_repeated", "urban_small_repeated", "indoor", "open"};
   return names;
 }
 
 SceneWithRoute BuildScene(const std::string& name, uint64_t seed) {
   if (name == "urban") return BuildUrbanScene(seed);
   if (name == "urban_block") return BuildUrbanBlockScene(seed);
+  if (name == "urban_small_block") return BuildUrbanSmallBlockScene(seed);
   if (name == "urban_repeated") return BuildUrbanRepeatedScene(seed);
+  if (name == "urban_small_repeated") return BuildUrbanSmallRepeatedScene(seed);
   if (name == "indoor") return BuildIndoorScene(seed);
   if (name == "open") return BuildOpenScene(seed);
   std::string known;

@@ -86,23 +86,24 @@ UrbanVariant UrbanVariantNamed(const std::string& name) {
     // Closed loop, counter-clockwise with a U-shaped detour: 6 left and 2 right turns.
     v.route = {{1, 1}, {2, 1}, {3, 1}, {4, 1}, {4, 2}, {4, 3},
                {3, 3}, {3, 2}, {2, 2}, {2, 3}, {1, 3}, {1, 2}};
-  } else if (name == "urban_block") {
-    // One block counter-clockwise: 4 left turns, lap 4 x (73-89 m + 4 m) less the corner blends.
+  } else if (name == "urban_block" || name == "urban_small_block") {
+    // One block counter-clockwise: 4 left turns, lap 4 x (73-89 m + 4 m) less
+    // the corner blends; the small block's lap 4 x (41-49 m + 4 m).
     v.lines_x = 4;
     v.lines_y = 4;
-    v.block_min_m = 56.0;
-    v.block_max_m = 72.0;
+    v.block_min_m = name == "urban_block" ? 56.0 : 24.0;
+    v.block_max_m = name == "urban_block" ? 72.0 : 32.0;
     v.route = {{1, 1}, {2, 1}, {2, 2}, {1, 2}};
     v.moving_car_on_route = 0.6;
   } else {
-    MCVO_CHECK_MSG(name == "urban_repeated", "unknown urban variant ", name);
+    MCVO_CHECK_MSG(name == "urban_repeated" || name == "urban_small_repeated", "unknown urban variant ", name);
     // Open staircase from mid-block to mid-block: east, north, east, north,
-    // east (5 blocks of 97-101 m); x and y never decrease, so points s metres
-    // apart along it are at least s / sqrt(2) apart.
+    // east (5 blocks of 97-101 m, the small one's 53-57 m); x and y never
+    // decrease, so points s metres apart along it are at least s / sqrt(2) apart.
     v.lines_x = 5;
     v.lines_y = 5;
-    v.block_min_m = 80.0;
-    v.block_max_m = 84.0;
+    v.block_min_m = name == "urban_repeated" ? 80.0 : 36.0;
+    v.block_max_m = name == "urban_repeated" ? 84.0 : 40.0;
     v.route = {{0.5, 1}, {1, 1}, {1, 2}, {2, 2}, {2, 3}, {3, 3}, {3.5, 3}};
     v.route_closed = false;
     v.trees = false;
@@ -444,6 +445,12 @@ SceneWithRoute BuildUrbanScene(uint64_t seed) {
 }
 SceneWithRoute BuildUrbanBlockScene(uint64_t seed) {
   return UrbanBuilder(UrbanVariantNamed("urban_block"), seed).Build();
+}
+SceneWithRoute BuildUrbanSmallBlockScene(uint64_t seed) {
+  return UrbanBuilder(UrbanVariantNamed("urban_small_block"), seed).Build();
+}
+SceneWithRoute BuildUrbanSmallRepeatedScene(uint64_t seed) {
+  return UrbanBuilder(UrbanVariantNamed("urban_small_repeated"), seed).Build();
 }
 SceneWithRoute BuildUrbanRepeatedScene(uint64_t seed) {
   return UrbanBuilder(UrbanVariantNamed("urban_repeated"), seed).Build();

@@ -51,7 +51,8 @@ double NearestAround(const SceneWithRoute& s, const Vector3d& p) {
 
 TEST(SceneBuildersTest, EveryScenBuildsWithARoute) {
   EXPECT_EQ(SceneNames(),
-            (std::vector<std::string>{"urban", "urban_block", "urban_repeated", "indoor", "open"}));
+            (std::vector<std::string>{"urban", "urban_block", "urban_small_block", "urban_repeated",
+                                      "urban_small_repeated", "indoor", "open"}));
   for (const std::string& name : SceneNames()) {
     const SceneWithRoute s = BuildScene(name, 1);
     EXPECT_EQ(s.name, name);
@@ -73,7 +74,8 @@ TEST(SceneBuildersTest, UnknownSceneThrows) {
     FAIL() << "no exception";
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()),
-              "unknown scene 'forest' (known: urban, urban_block, urban_repeated, indoor, open)");
+              "unknown scene 'forest' (known: urban, urban_block, urban_small_block, urban_repeated, "
+              "urban_small_repeated, indoor, open)");
   }
 }
 

@@ -310,6 +310,48 @@ TEST(UrbanRepeatedTest, OpenRouteNeverComesBackNearAnEarlierPlace) {
   }
 }
 
+// The small versions: the same routes around smaller blocks.
+TEST(UrbanSmallVariantsTest, ShorterRoutesOfTheSameShape) {
+  for (uint64_t seed : {1, 2, 3}) {
+    const SceneWithRoute block = BuildScene("urban_small_block", seed);
+    EXPECT_TRUE(block.route_closed);
+    const RouteStats block_stats = ComputeRouteStats(block);
+    EXPECT_EQ(block_stats.left_turns, 4) << "seed " << seed;
+    EXPECT_EQ(block_stats.right_turns, 0) << "seed " << seed;
+    const double lap = TrajectoryOf(block, seed).LengthM();
+    EXPECT_GE(lap, 150.0) << "seed " << seed;  // documented: about 190 m
+    EXPECT_LE(lap, 215.0) << "seed " << seed;
+
+    const SceneWithRoute repeated = BuildScene("urban_small_repeated", seed);
+    EXPECT_FALSE(repeated.route_closed);
+    const RouteStats stats = ComputeRouteStats(repeated);
+    EXPECT_EQ(stats.left_turns, 2) << "seed " << seed;
+    EXPECT_EQ(stats.right_turns, 2) << "seed " << seed;
+    const SmoothTrajectory trajectory = TrajectoryOf(repeated, seed);
+    EXPECT_GE(trajectory.LengthM(), 230.0) << "seed " << seed;  // documented: about 250 m
+    EXPECT_LE(trajectory.LengthM(), 275.0) << "seed " << seed;
+    // Never back near an earlier place: positions more than 60 m apart
+    // along the path are more than 20 m apart.
+    const std::vector<PathSample> path = SamplePath(trajectory, 50'000'000);
+    double closest = 1e9;
+    for (size_t i = 0; i < path.size(); ++i) {
+      for (size_t j = 0; j < i; ++j) {
+        if (path[i].arc_length_m - path[j].arc_length_m <= 60.0) break;
+        closest = std::min(closest, (path[i].position - path[j].position).norm());
+      }
+    }
+    EXPECT_GE(closest, 20.0) << "seed " << seed;
+    std::set<std::pair<Material, uint32_t>> facade_textures;
+    for (const Quad& q : repeated.scene.quads()) {
+      if (IsBuildingFacade(q.material)) facade_textures.insert({q.material, q.texture_seed});
+    }
+    EXPECT_EQ(static_cast<int>(facade_textures.size()), kUrbanRepeatedFacadeTextures) << "seed " << seed;
+    std::printf("[measured] seed %d: urban_small_block lap %.1f m; urban_small_repeated rig path %.1f m, closest "
+                "return %.1f m\n",
+                static_cast<int>(seed), lap, trajectory.LengthM(), closest);
+  }
+}
+
 TEST(UrbanRepeatedTest, FacadesUseTheStatedFewTextures) {
   for (uint64_t seed : {1, 2}) {
     const SceneWithRoute s = BuildScene("urban_repeated", seed);
@@ -345,7 +387,7 @@ TEST(UrbanRepeatedTest, FacadesUseTheStatedFewTextures) {
 
 // The rig never passes through or next to geometry (as urban's routes).
 TEST(UrbanVariantsTest, RigPathIsClearOfGeometry) {
-  for (const std::string name : {"urban_block", "urban_repeated"}) {
+  for (const std::string name : {"urban_block", "urban_small_block", "urban_repeated", "urban_small_repeated"}) {
     for (uint64_t seed : {1, 2}) {
       const SceneWithRoute s = BuildScene(name, seed);
       const SmoothTrajectory trajectory = TrajectoryOf(s, seed);
@@ -384,6 +426,8 @@ void ExpectRendersTexturedFrames(const std::string& scene) {
 
 TEST(UrbanVariantsTest, RendersUrbanBlock) { ExpectRendersTexturedFrames("urban_block"); }
 TEST(UrbanVariantsTest, RendersUrbanRepeated) { ExpectRendersTexturedFrames("urban_repeated"); }
+TEST(UrbanVariantsTest, RendersUrbanSmallBlock) { ExpectRendersTexturedFrames("urban_small_block"); }
+TEST(UrbanVariantsTest, RendersUrbanSmallRepeated) { ExpectRendersTexturedFrames("urban_small_repeated"); }
 
 // urban renders exactly as it did before the variants were added (the
 // benchmarks and the committed regression baseline depend on it): hashes of

@@ -1,21 +1,22 @@
 // Loop closure in `mcvo run`, on short synthetic sequences of the KITTI-360
-// rig (4 cameras) at 0.3 image scale (the fixtures are rendered once per
-// build; at 0.3 they cost half of what 0.35 did, issue 16):
-//  - urban_block at 5 frames/s (1.3 m between frames at 6.4 m/s, as
-//    KITTI-360's 10 Hz at 13 m/s) driven for more than one lap: the second
-//    lap revisits the first, a loop is found and accepted, the trajectory
-//    after the pose graph is more accurate than before, the run is
-//    identical at 1 and 2 threads. (Measured: 14 loops accepted of 29
-//    verified, ATE 0.52 m before, 0.16 m after, over 435 m. At 4 frames/s
-//    or at 0.25 scale no loop verifies: too few ORB matches.)
-//  - urban_repeated (every facade alike, a route that never returns), at 4
-//    frames/s, driven to its end: no loop is accepted. The end's view
-//    matches look-alike blocks 200-280 m back geometrically (16-26 inliers
-//    in 2-3 cameras over consecutive keyframes); the run lowers
-//    loop.min_inliers to 15 and loop.min_camera_inliers to 5 so that those
-//    candidates pass the geometric check, and asserts that the drift they
-//    would imply is what rejects them (loops.csv: "implausible"; measured:
-//    8 such rejections).
+// rig (4 cameras) at 0.3 image scale, in the small-block versions of the
+// loop scenes (rendered once per build; together about a third of what the
+// full-size scenes at 0.35 cost, issue 16; tools/bench_loop.sh measures the
+// full-size ones):
+//  - urban_small_block at 5 frames/s (as KITTI-360's 10 Hz at 13 m/s, about
+//    1.3 m between frames on the straights) driven for 1.25 laps (228
+//    frames): the second lap revisits the first, a loop is found and
+//    accepted, the trajectory after the pose graph is more accurate than
+//    before, the run is identical at 1 and 2 threads. (Measured: 11 loops
+//    accepted of 30 verified, ATE 0.130 m before, 0.053 m after, over 238 m.)
+//  - urban_small_repeated (every facade alike, a route that never returns)
+//    at 4 frames/s, driven to its end (174 frames): no loop is accepted.
+//    Views match look-alike blocks 75-120 m back geometrically with 15-23
+//    inliers in 2-3 cameras; the run lowers loop.min_inliers to 15 and
+//    loop.min_camera_inliers to 5 so that those candidates pass the
+//    geometric check, and asserts that the drift they would imply is what
+//    rejects them (loops.csv: "implausible"; measured: 25 such rejections;
+//    none at min_inliers 25).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -83,7 +84,7 @@ class LoopCli : public ::testing::Test {
 };
 
 TEST_F(LoopCli, RevisitIsClosedAndImprovesTheTrajectory) {
-  const fs::path seq = Render("urban_block", "--laps 1.25", 5);
+  const fs::path seq = Render("urban_small_block", "--laps 1.25", 5);
   const fs::path out1 = Root() / "run1", out2 = Root() / "run2";
   auto r = RunMcvo("run --dataset " + Quote(seq.string()) + " --config " + Config() + " --threads 1 --out " +
                    Quote(out1.string()));
@@ -118,7 +119,7 @@ TEST_F(LoopCli, RevisitIsClosedAndImprovesTheTrajectory) {
 }
 
 TEST_F(LoopCli, RepeatedFacadesWithoutRevisitGiveNoLoop) {
-  const fs::path seq = Render("urban_repeated", "--frames 0", 4);
+  const fs::path seq = Render("urban_small_repeated", "--frames 0", 4);
   const fs::path out = Root() / "run";
   const auto r = RunMcvo("run --dataset " + Quote(seq.string()) + " --config " + ConfigWithMinInliers(15, 5) +
                          " --out " + Quote(out.string()));

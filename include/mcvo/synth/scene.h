@@ -164,23 +164,31 @@ struct SceneWithRoute {
 //   block (counter-clockwise, 4 left turns; rig path about 290-360 m, lap
 //   about 53 s). Driven more than once (a sequence longer than the lap), it
 //   revisits every place: the loop-closure test scene.
+// urban_small_block: urban_block with blocks of 24-32 m (lap about 190 m,
+//   37 s): the same revisit in two thirds of the frames, for quick checks
+//   (the loop-closure CLI test).
 // urban_repeated: a regular grid whose buildings all wear the same
 //   kUrbanRepeatedFacadeTextures facade textures (and one shop-front
 //   design; no posters, no trees), so many places look alike; the route is
 //   open (a staircase of 5 blocks, 2 left and 2 right turns, rig path about
 //   470-490 m) and never comes back near an earlier place: every match
 //   between its frames at different places is a false loop.
+// urban_small_repeated: urban_repeated with blocks of 36-40 m (rig path
+//   about 250 m): look-alike blocks 75-120 m back, for quick checks.
 // indoor: corridors and a lab, long textureless wall segments.
 // open: sparse, distant structure on open terrain.
 SceneWithRoute BuildUrbanScene(uint64_t seed);
 SceneWithRoute BuildUrbanBlockScene(uint64_t seed);
+SceneWithRoute BuildUrbanSmallBlockScene(uint64_t seed);
 SceneWithRoute BuildUrbanRepeatedScene(uint64_t seed);
+SceneWithRoute BuildUrbanSmallRepeatedScene(uint64_t seed);
 SceneWithRoute BuildIndoorScene(uint64_t seed);
 SceneWithRoute BuildOpenScene(uint64_t seed);
 // Distinct (material, texture seed) pairs of the brick and plaster facades
 // in urban_repeated (one plaster and one brick design).
 inline constexpr int kUrbanRepeatedFacadeTextures = 2;
-// The names BuildScene knows: urban, urban_block, urban_repeated, indoor, open.
+// The names BuildScene knows: urban, urban_block, urban_small_block,
+// urban_repeated, urban_small_repeated, indoor, open.
 const std::vector<std::string>& SceneNames();
 // One of SceneNames(); throws InputError listing the names otherwise.
 SceneWithRoute BuildScene(const std::string& name, uint64_t seed);

@@ -13,7 +13,7 @@
 // Frames past the end of the route: on a closed route (urban, urban_block,
 // indoor) the rig drives the loop again, lap after lap, and the pose at
 // t + lap is exactly the pose at t (SmoothTrajectory::WorldFromRig); on an
-// open route (urban_repeated, open) it stands still at the end.
+// open route (urban_repeated, urban_small_repeated, open) it stands still at the end.
 //
 // The whole folder is written under a temporary name beside DIR and renamed
 // when complete: an interrupted run leaves no DIR that looks complete.
