@@ -30,12 +30,14 @@ fs::path Root() {
 
 nlohmann::json ReadJson(const fs::path& path) { return nlohmann::json::parse(mcvo::ReadFileToString(path)); }
 
-// 200 frames at 10 Hz of the urban route (186 m, two corners), 704x188,
-// 1 grey level of noise. Measured: 200 posed, Sim3 ATE 0.18 % of the path.
+// 200 frames at 10 Hz of the urban route (186 m, two corners), 563x150
+// (0.4 image scale: the fixture costs two thirds of 0.5's), 1 grey level of
+// noise. Measured: 200 posed, Sim3 ATE 0.375 % of the path (0.18 % at 0.5;
+// at 0.35 tracking is lost twice).
 TEST(MonocularCli, OneCameraRunsAtAnArbitraryScaleAndSaysSo) {
   std::string error;
   const fs::path seq = mcvo::test::CachedSynth(
-      "--preset mono --frames 200 --image-scale 0.5 --samples 1 --noise 1 --seed 5", &error);
+      "--preset mono --frames 200 --image-scale 0.4 --samples 1 --noise 1 --seed 5", &error);
   ASSERT_FALSE(seq.empty()) << error;
   const fs::path out1 = Root() / "mono_t1", out2 = Root() / "mono_t2";
   auto r = RunMcvo("run --dataset " + Quote(seq.string()) + " --threads 1 --out " + Quote(out1.string()));
