@@ -140,4 +140,35 @@ TEST_F(InfoDataset, UsageErrors) {
   EXPECT_EQ(result.exit_code, 2) << result.output;
 }
 
+// --decode reads every image as `mcvo run` does and prints the time; an
+// image that does not decode stops it with the file named and exit 3.
+TEST_F(InfoDataset, DecodeReadsEveryImageAndNamesABrokenOne) {
+  const fs::path root = Synth();
+  Result result = RunMcvo("info --dataset " + Quote(root.string()) + " --decode --threads 2");
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_NE(result.output.find("decode: 4 frames, 16 images ("), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find(" on 2 threads: "), std::string::npos) << result.output;
+  EXPECT_EQ(RunMcvo("info --dataset " + Quote(root.string()) + " --threads 2").exit_code, 2);  // needs --decode
+
+  // The third frame's image_02 is replaced by text.
+  fs::path broken;
+  for (const auto& entry : fs::recursive_directory_iterator(root / "images")) {
+    const std::string path = entry.path().string();
+    if (entry.is_regular_file() && path.find("image_02") != std::string::npos &&
+        entry.path().filename().string().find("000002") != std::string::npos) {
+      broken = entry.path();
+    }
+  }
+  ASSERT_FALSE(broken.empty());
+  {
+    FILE* out = std::fopen(broken.c_str(), "wb");
+    ASSERT_NE(out, nullptr);
+    std::fputs("not a png", out);
+    std::fclose(out);
+  }
+  result = RunMcvo("info --dataset " + Quote(root.string()) + " --decode");
+  EXPECT_EQ(result.exit_code, 3) << result.output;
+  EXPECT_NE(result.output.find(broken.filename().string()), std::string::npos) << result.output;
+}
+
 }  // namespace
