@@ -154,9 +154,9 @@ int RunEval(int argc, const char* const* argv) {
     for (StampedPose& pose : gt.poses) {
       pose.world_from_body = pose.world_from_body * Rigid3d(Eigen::Quaterniond::Identity(), c);
     }
-    std::cerr << "mcvo eval: --align auto: ground truth moved to the estimate's origin, (" << FormatDouble(c.x())
-              << ", " << FormatDouble(c.y()) << ", " << FormatDouble(c.z()) << ") m in the rig frame (" << run_json
-              << ")\n";
+    std::cerr << "mcvo eval: --align auto: ground truth moved to the estimate's origin, ("
+              << FormatDouble(c.x()) << ", " << FormatDouble(c.y()) << ", " << FormatDouble(c.z())
+              << ") m in the rig frame (" << run_json << ")\n";
   }
   Trajectory est = ReadTrajectory(est_path, est_file_format);
   if (!gt_times.empty()) ApplyTimesFile(gt_times, &gt);

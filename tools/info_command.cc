@@ -7,9 +7,9 @@
 // of the world.
 #include <algorithm>
 #include <chrono>
-#include <optional>
 #include <cmath>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -233,8 +233,8 @@ void DecodeAll(const DatasetIndex& index, int threads, std::ostream& out) {
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   out << "\ndecode: " << frames << " frames, " << images << " images (" << FormatFixed(megapixels, 1)
-      << " Mpx) in " << FormatFixed(seconds, 3) << " s on " << options.threads << " threads: "
-      << FormatFixed(frames / std::max(seconds, 1e-9), 2) << " frames/s, "
+      << " Mpx) in " << FormatFixed(seconds, 3) << " s on " << options.threads
+      << " threads: " << FormatFixed(frames / std::max(seconds, 1e-9), 2) << " frames/s, "
       << FormatFixed(megapixels / std::max(seconds, 1e-9), 1) << " Mpx/s (wall clock)\n";
 }
 

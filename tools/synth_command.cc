@@ -28,9 +28,10 @@ int RunSynth(int argc, const char* const* argv) {
   args.AddString("preset", &options.preset, "NAME",
                  "kitti360 | kitti360-3cam | stereo | mono | multicam6 | irregular5 (rig + default scene)");
   args.AddString("rig", &rig_path, "FILE", "a rig.json instead of a preset (needs --scene)");
-  args.AddString("scene", &options.scene, "NAME",
-                 "urban | urban_block | urban_small_block | urban_repeated | urban_small_repeated | indoor | open "
-                 "(default: the preset's)");
+  args.AddString(
+      "scene", &options.scene, "NAME",
+      "urban | urban_block | urban_small_block | urban_repeated | urban_small_repeated | indoor | open "
+      "(default: the preset's)");
   args.AddString("out", &out_dir, "DIR", "output folder (must not exist or be empty, unless --force)", true);
   args.AddInt("frames", &options.frames,
               "number of frames; 0: the whole route once (a closed route repeats past its end)");
@@ -70,7 +71,8 @@ int RunSynth(int argc, const char* const* argv) {
   options.render.effects.exposure_changes = exposure;
   options.render.effects.vignetting = vignetting;
   if (!stops.empty()) {
-    for (std::string_view stop : SplitFields(stops, ',')) options.stops.stops.push_back(synth::ParseStop(std::string(stop)));
+    for (std::string_view stop : SplitFields(stops, ','))
+      options.stops.stops.push_back(synth::ParseStop(std::string(stop)));
   }
   if (!blackout.empty()) {
     const std::vector<std::string_view> parts = SplitFields(blackout, ':');
@@ -85,8 +87,9 @@ int RunSynth(int argc, const char* const* argv) {
     const Rig rig = options.preset.empty() ? ReadRig(rig_path) : synth::PresetRig(options.preset);
     const auto index = ParseInt64(parts[0]);
     const bool all = parts[0] == "all" && rig.FindCamera(parts[0]) < 0;
-    const int camera = all ? synth::RenderEffects::kBlackoutAllCameras
-                           : index ? static_cast<int>(*index) : rig.FindCamera(parts[0]);
+    const int camera = all     ? synth::RenderEffects::kBlackoutAllCameras
+                       : index ? static_cast<int>(*index)
+                               : rig.FindCamera(parts[0]);
     if (!all && (camera < 0 || camera >= rig.NumCameras())) {
       throw UsageError("--blackout: no camera '" + std::string(parts[0]) + "' in the rig");
     }

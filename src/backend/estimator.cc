@@ -27,10 +27,10 @@ namespace {
 
 using backend_internal::kMaxLandmarkDistanceM;
 using backend_internal::kMinLandmarkDistanceM;
+using backend_internal::LandmarkObservation;
 using backend_internal::LandmarkWindow;
 using backend_internal::WindowFrame;
 using backend_internal::WindowLandmark;
-using backend_internal::LandmarkObservation;
 using backend_internal::WindowProblem;
 using backend_internal::WindowScaleCorrector;
 
@@ -47,16 +47,16 @@ std::vector<Rigid3d> CamFromRig(const Rig& rig) {
 std::string ScaleSourceNote(const InitializationResult& init, const Rig& rig) {
   if (init.source == ScaleSource::kArbitrary) {
     return StrCat("arbitrary scale (one camera, ", rig.cameras[init.principal_camera].name,
-                  "): unit = its travel over the initialisation window, frames ", init.frame_index.front(), "-",
-                  init.frame_index.back());
+                  "): unit = its travel over the initialisation window, frames ", init.frame_index.front(),
+                  "-", init.frame_index.back());
   }
   return StrCat("scale from ",
                 init.source == ScaleSource::kRigRotation    ? "rig rotation"
                 : init.source == ScaleSource::kCrossCamera  ? "cross-camera baseline"
                 : init.source == ScaleSource::kOverlapStart ? "overlapping views without motion"
                                                             : "rig rotation and cross-camera baseline",
-                "; principal camera ", rig.cameras[init.principal_camera].name, "; ", init.cross_camera_matches,
-                " cross-camera matches");
+                "; principal camera ", rig.cameras[init.principal_camera].name, "; ",
+                init.cross_camera_matches, " cross-camera matches");
 }
 
 }  // namespace
@@ -196,7 +196,8 @@ struct Estimator::Impl {
       auto point = init_points.find(id);
       if (point != init_points.end()) {
         const double depth =
-            (window.WorldFromCam(*lm.anchor_frame, lm.anchor_camera).Inverse() * point->second).dot(lm.anchor_bearing);
+            (window.WorldFromCam(*lm.anchor_frame, lm.anchor_camera).Inverse() * point->second)
+                .dot(lm.anchor_bearing);
         if (depth > kMinLandmarkDistanceM && depth < kMaxLandmarkDistanceM) {
           lm.inverse_depth = 1.0 / depth;
           lm.triangulated = true;
@@ -441,6 +442,8 @@ std::vector<MapLandmark> Estimator::TakeFinishedLandmarks() { return impl_->wind
 
 std::vector<KeyframeEstimate> Estimator::Finish() { return impl_->Finish(); }
 
-double Estimator::SmallestRejectedScaleSigma() const { return impl_->initializer.SmallestRejectedScaleSigma(); }
+double Estimator::SmallestRejectedScaleSigma() const {
+  return impl_->initializer.SmallestRejectedScaleSigma();
+}
 
 }  // namespace mcvo

@@ -133,7 +133,8 @@ void LandmarkWindow::TriangulatePending() {
   }
 }
 
-std::vector<std::pair<uint64_t, LandmarkObservation>> LandmarkWindow::FrameObservations(WindowFrame* frame) const {
+std::vector<std::pair<uint64_t, LandmarkObservation>> LandmarkWindow::FrameObservations(
+    WindowFrame* frame) const {
   std::vector<std::pair<uint64_t, LandmarkObservation>> out;
   for (int c = 0; c < static_cast<int>(frame->obs.cameras.size()); ++c) {
     for (const FeatureObservation& f : frame->obs.cameras[c]) out.push_back({f.id, {frame, c, f.bearing}});

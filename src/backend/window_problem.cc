@@ -72,16 +72,16 @@ void WindowProblem::AddLandmarkBlocks(uint64_t id, WindowLandmark* lm, double* i
       const Rigid3d rig_from_cam_anchor = cam_from_rig_[lm->anchor_camera].Inverse();
       const Rigid3d rig_from_cam_obs = cam_from_rig_[ob.camera].Inverse();
       if (same_frame) {
-        cost = NewReprojectionFactorSameFrameConstExtrinsics(lm->anchor_bearing, ob.bearing, rig_from_cam_anchor,
-                                                             rig_from_cam_obs, sqrt_information_);
+        cost = NewReprojectionFactorSameFrameConstExtrinsics(
+            lm->anchor_bearing, ob.bearing, rig_from_cam_anchor, rig_from_cam_obs, sqrt_information_);
         params = {inv};
       } else if (same_camera) {
-        cost = NewReprojectionFactorSameCameraConstExtrinsics(lm->anchor_bearing, ob.bearing, rig_from_cam_anchor,
-                                                              sqrt_information_);
+        cost = NewReprojectionFactorSameCameraConstExtrinsics(lm->anchor_bearing, ob.bearing,
+                                                              rig_from_cam_anchor, sqrt_information_);
         params = {anchor_pose, ob.frame->pose.data(), inv};
       } else {
-        cost = NewReprojectionFactorOtherCameraConstExtrinsics(lm->anchor_bearing, ob.bearing, rig_from_cam_anchor,
-                                                               rig_from_cam_obs, sqrt_information_);
+        cost = NewReprojectionFactorOtherCameraConstExtrinsics(
+            lm->anchor_bearing, ob.bearing, rig_from_cam_anchor, rig_from_cam_obs, sqrt_information_);
         params = {anchor_pose, ob.frame->pose.data(), inv};
       }
     } else if (same_frame) {
@@ -131,7 +131,8 @@ bool WindowProblem::Solve(LandmarkWindow* window, bool monocular, FrameEstimate*
     ceres_problem.AddParameterBlock(extrinsics_[c].data(), kPoseParamSize, pose_manifold_.get());
   }
   for (const Blocks::Block& block : problem.blocks) {
-    ceres_problem.AddResidualBlock(block.cost, block.landmark == 0 ? nullptr : problem.loss.get(), block.params);
+    ceres_problem.AddResidualBlock(block.cost, block.landmark == 0 ? nullptr : problem.loss.get(),
+                                   block.params);
   }
   // Gauge: the oldest keyframe is held fixed (the prior carries what was learnt before it).
   ceres_problem.SetParameterBlockConstant(frames.front()->pose.data());
@@ -164,7 +165,8 @@ bool WindowProblem::Solve(LandmarkWindow* window, bool monocular, FrameEstimate*
   solver_options.trust_region_strategy_type =
       options_.solver == SolverType::kDogleg ? ceres::DOGLEG : ceres::LEVENBERG_MARQUARDT;
   solver_options.max_num_iterations = options_.max_iterations;
-  if (options_.max_solver_time_s > 0.0) solver_options.max_solver_time_in_seconds = options_.max_solver_time_s;
+  if (options_.max_solver_time_s > 0.0)
+    solver_options.max_solver_time_in_seconds = options_.max_solver_time_s;
   solver_options.num_threads = 1;  // Schur reductions in parallel change summation order
   solver_options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
@@ -189,7 +191,8 @@ void WindowProblem::MarginalizeOldest(LandmarkWindow* window) {
     if (problem.blocks.size() > before) drop.push_back(&lm.inverse_depth);
   }
   Marginalizer marginalizer;
-  for (WindowFrame* frame : window->frames()) marginalizer.SetManifold(frame->pose.data(), pose_manifold_.get());
+  for (WindowFrame* frame : window->frames())
+    marginalizer.SetManifold(frame->pose.data(), pose_manifold_.get());
   for (int c = 0; c < num_cameras_; ++c) {
     marginalizer.SetManifold(extrinsics_[c].data(), pose_manifold_.get());
     if (IsExtrinsicConstant(c)) marginalizer.SetConstant(extrinsics_[c].data());
@@ -207,12 +210,14 @@ void WindowProblem::MarginalizeOldest(LandmarkWindow* window) {
   prior_ = std::move(next_prior);
 }
 
-void WindowProblem::RescalePriorPositions(const LandmarkWindow& window, const Eigen::Vector3d& origin, double k) {
+void WindowProblem::RescalePriorPositions(const LandmarkWindow& window, const Eigen::Vector3d& origin,
+                                          double k) {
   if (!prior_) return;
   const std::vector<double*>& blocks = prior_->kept_blocks();
   for (size_t b = 0; b < blocks.size(); ++b) {
-    const bool is_pose = std::any_of(window.frames().begin(), window.frames().end(),
-                                     [&](const WindowFrame* frame) { return frame->pose.data() == blocks[b]; });
+    const bool is_pose =
+        std::any_of(window.frames().begin(), window.frames().end(),
+                    [&](const WindowFrame* frame) { return frame->pose.data() == blocks[b]; });
     if (!is_pose) continue;
     std::vector<double> x0 = prior_->x0(static_cast<int>(b));
     for (int i = 0; i < 3; ++i) x0[i] = origin[i] + k * (x0[i] - origin[i]);

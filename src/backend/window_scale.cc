@@ -75,7 +75,8 @@ WindowScaleCorrector::Outcome WindowScaleCorrector::Correct(const WindowFrame& n
   for (const Camera& camera : rig_.cameras) ba_options.camera_focal_px.push_back(camera.MeanFocalLength());
   ba_options.max_reprojection_px = options_.outlier_threshold_px;
   ba_options.max_iterations = kScaleCorrectionIterations;
-  const RigWindowBaResult ba = AdjustRigWindow(window->cam_from_rig(), 0, poses, points, observations, ba_options);
+  const RigWindowBaResult ba =
+      AdjustRigWindow(window->cam_from_rig(), 0, poses, points, observations, ba_options);
   if (!ba.ok) return log(StrCat("not applied: rig BA failed: ", ba.reason));
   const double current_travel = (poses.back().translation - poses.front().translation).norm();
   entry.rms_reprojection_px = ba.rms_reprojection_px;
@@ -99,8 +100,8 @@ WindowScaleCorrector::Outcome WindowScaleCorrector::Correct(const WindowFrame& n
   outcome.measured = true;
   const ScaleFilter::Update update = filter_.Measure(ratio, sigma);
   if (update.outcome == ScaleFilter::Outcome::kOutlier) {
-    return log(StrCat("not applied: ratio ", FormatFixed(ratio, 4), " is ", FormatFixed(update.innovation_sigmas, 1),
-                      " sigma from the current scale (outlier)"));
+    return log(StrCat("not applied: ratio ", FormatFixed(ratio, 4), " is ",
+                      FormatFixed(update.innovation_sigmas, 1), " sigma from the current scale (outlier)"));
   }
   const double gain = update.gain;
   const double k = update.factor;
@@ -133,10 +134,9 @@ WindowScaleCorrector::Outcome WindowScaleCorrector::Correct(const WindowFrame& n
 // Per camera: the median change of its landmarks' depths from their anchor
 // camera in the rig BA (the paper's per-camera adjustment), fused with the
 // same gain; k for a camera with too few landmarks.
-std::vector<double> WindowScaleCorrector::CameraRatios(const LandmarkWindow& window,
-                                                       const std::vector<Rigid3d>& refined_world_from_rig,
-                                                       const std::map<uint64_t, Eigen::Vector3d>& refined_points,
-                                                       double gain, double k) const {
+std::vector<double> WindowScaleCorrector::CameraRatios(
+    const LandmarkWindow& window, const std::vector<Rigid3d>& refined_world_from_rig,
+    const std::map<uint64_t, Eigen::Vector3d>& refined_points, double gain, double k) const {
   const int n = rig_.NumCameras();
   std::map<const WindowFrame*, int> frame_slot;
   int slot = 0;
@@ -147,8 +147,8 @@ std::vector<double> WindowScaleCorrector::CameraRatios(const LandmarkWindow& win
     if (!window.UsableInBa(lm) || refined == refined_points.end()) continue;
     const Rigid3d anchor = window.WorldFromCam(*lm.anchor_frame, lm.anchor_camera);
     // The anchor frame's refined pose: the BA moved it too.
-    const Rigid3d refined_anchor =
-        refined_world_from_rig[frame_slot.at(lm.anchor_frame)] * window.cam_from_rig()[lm.anchor_camera].Inverse();
+    const Rigid3d refined_anchor = refined_world_from_rig[frame_slot.at(lm.anchor_frame)] *
+                                   window.cam_from_rig()[lm.anchor_camera].Inverse();
     const double before = (anchor.Inverse() * window.LandmarkInWorld(lm)).norm();
     const double after = (refined_anchor.Inverse() * refined->second).norm();
     if (before > 0.0 && after > 0.0) depth_ratios[lm.camera].push_back(after / before);

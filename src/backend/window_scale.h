@@ -40,7 +40,8 @@ class WindowScaleCorrector {
 
  private:
   // Per camera: the fused ratio of its landmark depths (see Correct).
-  std::vector<double> CameraRatios(const LandmarkWindow& window, const std::vector<Rigid3d>& refined_world_from_rig,
+  std::vector<double> CameraRatios(const LandmarkWindow& window,
+                                   const std::vector<Rigid3d>& refined_world_from_rig,
                                    const std::map<uint64_t, Eigen::Vector3d>& refined_points, double gain,
                                    double k) const;
 

@@ -15,8 +15,8 @@
 #include "mcvo/camera/camera.h"
 #include "mcvo/initializer/camera_sfm.h"
 #include "mcvo/initializer/initializer.h"
-#include "mcvo/map/observations.h"
 #include "mcvo/initializer/rig_scale.h"
+#include "mcvo/map/observations.h"
 
 namespace mcvo::initializer_internal {
 

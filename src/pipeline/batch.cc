@@ -539,8 +539,9 @@ std::string BatchSummaryCsv(const BatchReport& report) {
     for (double value : {r.rpe_translation_percent, r.rpe_rotation_deg_per_100m}) {
       csv += "," + (r.has_rpe ? FormatDouble(value) : "");
     }
-    csv += "," + (r.evaluated ? (r.scale_arbitrary ? std::string("arbitrary") : FormatDouble(r.scale_error_percent))
-                              : std::string());
+    csv += "," + (r.evaluated
+                      ? (r.scale_arbitrary ? std::string("arbitrary") : FormatDouble(r.scale_error_percent))
+                      : std::string());
     csv += "," + (r.has_result ? FormatFixed(r.frames_per_second, 2) : "");
     csv += "\n";
   }
@@ -565,8 +566,9 @@ std::string BatchSummaryMarkdown(const BatchReport& report) {
     md += r.has_rpe ? FormatFixed(r.rpe_translation_percent, 3) + " | " +
                           FormatFixed(r.rpe_rotation_deg_per_100m, 3) + " | "
                     : std::string(" |  | ");
-    md += r.evaluated ? (r.scale_arbitrary ? std::string("arbitrary") : FormatFixed(r.scale_error_percent, 3)) + " | "
-                      : std::string(" | ");
+    md += r.evaluated
+              ? (r.scale_arbitrary ? std::string("arbitrary") : FormatFixed(r.scale_error_percent, 3)) + " | "
+              : std::string(" | ");
     md += r.has_result ? FormatFixed(r.frames_per_second, 2) + " | " : std::string(" | ");
     md += MarkdownCell(r.warning) + " |\n";
   }

@@ -56,14 +56,15 @@ DatasetIndex MonocularIndex(DatasetIndex index) {
   Camera& camera = index.rig.cameras.front();
   const Eigen::Vector3d centre = camera.cam_from_rig.Inverse().translation;  // in the rig frame
   if (centre.norm() == 0.0) return index;
-  index.log.push_back(StrCat("one camera: monocular at an arbitrary scale; the trajectory is of ", camera.name,
-                             "'s centre (its lever arm of ", FormatFixed(centre.norm(), 3),
+  index.log.push_back(StrCat("one camera: monocular at an arbitrary scale; the trajectory is of ",
+                             camera.name, "'s centre (its lever arm of ", FormatFixed(centre.norm(), 3),
                              " m to the rig origin needs the metric scale), the ground truth moved with it"));
   camera.cam_from_rig.translation.setZero();
   index.origin_moved_to = centre;
   if (index.ground_truth) {
     const Rigid3d rig_from_centre(Eigen::Quaterniond::Identity(), centre);
-    for (StampedPose& pose : index.ground_truth->poses) pose.world_from_body = pose.world_from_body * rig_from_centre;
+    for (StampedPose& pose : index.ground_truth->poses)
+      pose.world_from_body = pose.world_from_body * rig_from_centre;
   }
   return index;
 }
@@ -118,7 +119,8 @@ std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetInde
 std::string PosingFailureCategory(const std::string& reason) {
   auto has = [&](const char* text) { return reason.find(text) != std::string::npos; };
   if (has("parallax")) return "the rig never moved enough for the initializer (parallax too small)";
-  if (has("pure translation") || has("not observable") || has("poorly observable")) return kScaleNeverObservable;
+  if (has("pure translation") || has("not observable") || has("poorly observable"))
+    return kScaleNeverObservable;
   if (has("rig pose failed") || has("tracking lost")) return "tracking lost";
   if (has("correspondences")) return "too few tracked features";
   if (has("too few cameras pass")) return "too few cameras track enough features with enough parallax";

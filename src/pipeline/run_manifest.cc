@@ -21,7 +21,8 @@ std::map<std::string, std::string> StringMap(const Json& object) {
 }
 
 std::string StringOr(const Json& object, const char* key, std::string fallback = "") {
-  if (object.is_object() && object.contains(key) && object[key].is_string()) return object[key].get<std::string>();
+  if (object.is_object() && object.contains(key) && object[key].is_string())
+    return object[key].get<std::string>();
   return fallback;
 }
 
@@ -62,7 +63,8 @@ RunManifest RunManifest::FromJson(const Json& json) {
   auto take = [&](const char* key, Json::value_t type) -> const Json* {
     if (!json.contains(key)) return nullptr;
     const Json& value = json[key];
-    const bool ok = value.type() == type || (type == Json::value_t::number_integer && value.is_number_integer());
+    const bool ok =
+        value.type() == type || (type == Json::value_t::number_integer && value.is_number_integer());
     if (!ok) return nullptr;
     m.present.insert(key);
     return &value;
@@ -80,7 +82,8 @@ RunManifest RunManifest::FromJson(const Json& json) {
     m.dataset.root = StringOr(*v, "root");
     m.dataset.format = StringOr(*v, "format");
     m.dataset.name = StringOr(*v, "name");
-    if (v->contains("frames") && (*v)["frames"].is_number_integer()) m.dataset.frames = (*v)["frames"].get<int>();
+    if (v->contains("frames") && (*v)["frames"].is_number_integer())
+      m.dataset.frames = (*v)["frames"].get<int>();
     if (v->contains("cameras") && (*v)["cameras"].is_array()) {
       for (const Json& c : (*v)["cameras"]) {
         if (c.is_string()) m.dataset.cameras.push_back(c.get<std::string>());
@@ -111,7 +114,8 @@ RunHeadline RunManifest::Headline() const {
   if (auto v = Number(r, "frames")) h.frames = static_cast<int>(*v);
   if (auto v = Number(r, "posed_frames")) h.posed_frames = static_cast<int>(*v);
   if (auto v = Number(r, "segments")) h.segments = static_cast<int>(*v);
-  if (r.is_object() && r.contains("warning") && r["warning"].is_string()) h.warning = r["warning"].get<std::string>();
+  if (r.is_object() && r.contains("warning") && r["warning"].is_string())
+    h.warning = r["warning"].get<std::string>();
   h.scale_arbitrary = StringOr(r, "scale") == "arbitrary";
   if (r.is_object() && r.contains("trajectory_origin_in_rig_m")) {
     const Json& c = r["trajectory_origin_in_rig_m"];

@@ -92,7 +92,8 @@ Evaluations Evaluate(const RunOutputsInput& in, const Trajectory& trajectory, co
   EvalOptions options = in.request->options.eval;
   // An arbitrary scale: a rigid alignment would measure the unit, not the
   // odometry; a similarity aligns it (and says so).
-  if (summary->scale_arbitrary && (options.align == AlignmentMode::kSe3 || options.align == AlignmentMode::kPosYaw)) {
+  if (summary->scale_arbitrary &&
+      (options.align == AlignmentMode::kSe3 || options.align == AlignmentMode::kPosYaw)) {
     MCVO_LOG(kInfo, "run: evaluation: one camera, arbitrary scale: sim3 alignment instead of ",
              AlignmentModeName(options.align));
     options.align = AlignmentMode::kSim3;
@@ -264,8 +265,8 @@ Json ResultJson(const RunOutputsInput& in, const RunSummary& summary, const Eval
   }
   if (odometry.fallback_sigma > 0.0) result["initializer_fallback_sigma"] = odometry.fallback_sigma;
   if (odometry.monocular_camera >= 0) {
-    result["monocular_fallback"] =
-        StrCat(in.index->rig.cameras.front().name, " alone at an arbitrary scale: ", odometry.monocular_reason);
+    result["monocular_fallback"] = StrCat(in.index->rig.cameras.front().name,
+                                          " alone at an arbitrary scale: ", odometry.monocular_reason);
   }
   if (!summary.warning.empty()) result["warning"] = summary.warning;
   if (summary.evaluated) {

@@ -156,8 +156,9 @@ std::vector<BoxSpec> TreeBoxes(const Eigen::Vector2d& center, double crown_size,
 }  // namespace internal
 
 const std::vector<std::string>& SceneNames() {
-  static const std::vector<std::string> names = {"urban",          "urban_block", "urban_small_block",
-                                                   "urban_repeated", "urban_small_repeated", "indoor", "open"};
+  static const std::vector<std::string> names = {
+      "urban",  "urban_block", "urban_small_block", "urban_repeated", "urban_small_repeated",
+      "indoor", "open"};
   return names;
 }
 

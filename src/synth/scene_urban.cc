@@ -96,7 +96,8 @@ UrbanVariant UrbanVariantNamed(const std::string& name) {
     v.route = {{1, 1}, {2, 1}, {2, 2}, {1, 2}};
     v.moving_car_on_route = 0.6;
   } else {
-    MCVO_CHECK_MSG(name == "urban_repeated" || name == "urban_small_repeated", "unknown urban variant ", name);
+    MCVO_CHECK_MSG(name == "urban_repeated" || name == "urban_small_repeated", "unknown urban variant ",
+                   name);
     // Open staircase from mid-block to mid-block: east, north, east, north,
     // east (5 blocks of 97-101 m, the small one's 53-57 m); x and y never
     // decrease, so points s metres apart along it are at least s / sqrt(2) apart.

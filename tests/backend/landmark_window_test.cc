@@ -171,7 +171,8 @@ TEST_F(WindowFixture, RemovingTheAnchorFrameReanchorsWhereThePointWas) {
   EXPECT_GT(reanchored, 100);
   // Points seen only by the removed frame left the window, into the map.
   const std::vector<MapLandmark> left = window.TakeFinishedLandmarks();
-  for (const MapLandmark& m : left) EXPECT_LT((m.position_world - TruePoint(static_cast<uint64_t>(m.id))).norm(), 1e-6);
+  for (const MapLandmark& m : left)
+    EXPECT_LT((m.position_world - TruePoint(static_cast<uint64_t>(m.id))).norm(), 1e-6);
   EXPECT_TRUE(window.TakeFinishedLandmarks().empty());
 }
 
@@ -186,7 +187,8 @@ TEST_F(WindowFixture, AnOutlierObservationIsRemovedAndTheAnchorKept) {
   const size_t observations = lm.observations.size();
   // 2° off (16 px at the virtual focal length): an outlier.
   LandmarkObservation& last = lm.observations.back();
-  last.bearing = (Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()) * last.bearing).normalized();
+  last.bearing =
+      (Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()) * last.bearing).normalized();
   EXPECT_GT(window.ObservationErrorPx(lm, last), options_.outlier_threshold_px);
   window.RemoveOutliers();
   ASSERT_EQ(lm.observations.size(), observations - 1);
@@ -218,7 +220,8 @@ TEST_F(WindowFixture, BundleAdjustmentRestoresPerturbedPosesAndDepths) {
   }
   double worst_m = 0.0;
   for (const auto& [id, lm] : window.landmarks()) {
-    if (window.UsableInBa(lm)) worst_m = std::max(worst_m, (window.LandmarkInWorld(lm) - TruePoint(id)).norm());
+    if (window.UsableInBa(lm))
+      worst_m = std::max(worst_m, (window.LandmarkInWorld(lm) - TruePoint(id)).norm());
   }
   EXPECT_LT(worst_m, 1e-2);
 

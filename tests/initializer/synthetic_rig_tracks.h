@@ -36,8 +36,8 @@
 #include "mcvo/camera/camera.h"
 #include "mcvo/geometry/rigid3d.h"
 #include "mcvo/initializer/camera_sfm.h"
-#include "mcvo/map/observations.h"
 #include "mcvo/io/rig_io.h"
+#include "mcvo/map/observations.h"
 #include "mcvo/util/hash.h"
 
 namespace mcvo::testing {

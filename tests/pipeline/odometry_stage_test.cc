@@ -36,7 +36,8 @@ SyntheticRigTracks Drive(const Rig& rig, int frames, bool cross_camera) {
   TrackOptions track_options;
   track_options.pixel_noise_px = 0.5;
   track_options.cross_camera = cross_camera;
-  return MakeRigTracks(rig, world_from_rig, LandmarksAroundPath(world_from_rig, LandmarkOptions()), track_options);
+  return MakeRigTracks(rig, world_from_rig, LandmarksAroundPath(world_from_rig, LandmarkOptions()),
+                       track_options);
 }
 
 PipelineOptions Options() {
@@ -45,7 +46,8 @@ PipelineOptions Options() {
   return options;
 }
 
-OdometryOutput RunStage(const Rig& rig, const std::vector<RigFrameObservations>& frames, const PipelineOptions& options) {
+OdometryOutput RunStage(const Rig& rig, const std::vector<RigFrameObservations>& frames,
+                        const PipelineOptions& options) {
   OdometryStage stage(rig, options, 2);
   for (const RigFrameObservations& frame : frames) stage.Add(frame, 0.0);
   return stage.Finish();
@@ -80,14 +82,16 @@ TEST(OdometryStageTest, AfterEveryCameraIsBlackedOutTheNewSegmentContinuesWhereT
   const Rigid3d gt_from_est = truth.world_from_rig[0] * out.poses.at(0).world_from_body.Inverse();
   for (int f = kFirst + kCount; f < static_cast<int>(truth.frames.size()); f += 5) {
     const double error =
-        ((gt_from_est * out.poses.at(f).world_from_body).translation - truth.world_from_rig[f].translation).norm();
+        ((gt_from_est * out.poses.at(f).world_from_body).translation - truth.world_from_rig[f].translation)
+            .norm();
     EXPECT_LT(error, 1.0) << "frame " << f;
   }
   // Keyframes and landmarks of both segments are in the same world.
   ASSERT_FALSE(out.keyframes.empty());
   for (const KeyframeEstimate& kf : out.keyframes) {
     const double error =
-        ((gt_from_est * kf.world_from_rig).translation - truth.world_from_rig[kf.frame_index].translation).norm();
+        ((gt_from_est * kf.world_from_rig).translation - truth.world_from_rig[kf.frame_index].translation)
+            .norm();
     EXPECT_LT(error, 1.0) << "keyframe " << kf.frame_index;
   }
 }
@@ -115,12 +119,13 @@ TEST(OdometryStageTest, MonocularSegmentsAreLinkedAtTheSpeedOfTheOneBefore) {
   }
   // Units per metre: estimated over true distance, before and after the blackout.
   auto units_per_metre = [&](int a, int b) {
-    return (out.poses.at(b).world_from_body.translation - out.poses.at(a).world_from_body.translation).norm() /
+    return (out.poses.at(b).world_from_body.translation - out.poses.at(a).world_from_body.translation)
+               .norm() /
            (truth.world_from_rig[b].translation - truth.world_from_rig[a].translation).norm();
   };
   const double before = units_per_metre(55, 79), after = units_per_metre(95, 129);
-  std::printf("one camera: %.4f units/m before the blackout, %.4f after (link scaled by %.4f)\n", before, after,
-              applied);
+  std::printf("one camera: %.4f units/m before the blackout, %.4f after (link scaled by %.4f)\n", before,
+              after, applied);
   EXPECT_NEAR(after / before, 1.0, 0.05);
 }
 

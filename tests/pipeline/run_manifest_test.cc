@@ -24,10 +24,15 @@ RunManifest Example() {
   m.dataset = {"/data/seq", "generic", "seq", 150, {"image_00", "image_01"}};
   m.inputs = {{"frames.csv", "11"}, {"rig.json", "22"}};
   m.outputs_sha256 = {{"trajectory.tum", "33"}, {"eval/eval.json", "44"}};
-  m.result = {{"frames", 150},           {"posed_frames", 148}, {"segments", 1},
-              {"ate_rmse_m", 0.25},      {"ate_percent_of_path", 0.12},
-              {"scale_error_percent", 0.3}, {"scale", "arbitrary"},
-              {"trajectory_origin_in_rig_m", {0.5, -0.1, 1.7}}, {"warning", "posed 148 of 150"}};
+  m.result = {{"frames", 150},
+              {"posed_frames", 148},
+              {"segments", 1},
+              {"ate_rmse_m", 0.25},
+              {"ate_percent_of_path", 0.12},
+              {"scale_error_percent", 0.3},
+              {"scale", "arbitrary"},
+              {"trajectory_origin_in_rig_m", {0.5, -0.1, 1.7}},
+              {"warning", "posed 148 of 150"}};
   m.timing = {{"frames_per_second", 31.5}};
   return m;
 }
@@ -37,8 +42,9 @@ TEST(RunManifest, RoundTripsThroughJsonInRunJsonsOrder) {
   const nlohmann::ordered_json json = m.ToJson();
   std::vector<std::string> keys;
   for (const auto& item : json.items()) keys.push_back(item.key());
-  EXPECT_EQ(keys, (std::vector<std::string>{"program", "version", "build", "command_line", "config_source",
-                                            "config", "dataset", "inputs", "outputs_sha256", "result", "timing"}));
+  EXPECT_EQ(keys,
+            (std::vector<std::string>{"program", "version", "build", "command_line", "config_source",
+                                      "config", "dataset", "inputs", "outputs_sha256", "result", "timing"}));
   EXPECT_EQ(json["build"]["executable_sha256"], "ab12");
   // The config keeps the writer's order (backend after runtime here).
   EXPECT_EQ(json["config"].begin().key(), "runtime");

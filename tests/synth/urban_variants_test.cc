@@ -346,9 +346,10 @@ TEST(UrbanSmallVariantsTest, ShorterRoutesOfTheSameShape) {
       if (IsBuildingFacade(q.material)) facade_textures.insert({q.material, q.texture_seed});
     }
     EXPECT_EQ(static_cast<int>(facade_textures.size()), kUrbanRepeatedFacadeTextures) << "seed " << seed;
-    std::printf("[measured] seed %d: urban_small_block lap %.1f m; urban_small_repeated rig path %.1f m, closest "
-                "return %.1f m\n",
-                static_cast<int>(seed), lap, trajectory.LengthM(), closest);
+    std::printf(
+        "[measured] seed %d: urban_small_block lap %.1f m; urban_small_repeated rig path %.1f m, closest "
+        "return %.1f m\n",
+        static_cast<int>(seed), lap, trajectory.LengthM(), closest);
   }
 }
 
@@ -387,7 +388,8 @@ TEST(UrbanRepeatedTest, FacadesUseTheStatedFewTextures) {
 
 // The rig never passes through or next to geometry (as urban's routes).
 TEST(UrbanVariantsTest, RigPathIsClearOfGeometry) {
-  for (const std::string name : {"urban_block", "urban_small_block", "urban_repeated", "urban_small_repeated"}) {
+  for (const std::string name :
+       {"urban_block", "urban_small_block", "urban_repeated", "urban_small_repeated"}) {
     for (uint64_t seed : {1, 2}) {
       const SceneWithRoute s = BuildScene(name, seed);
       const SmoothTrajectory trajectory = TrajectoryOf(s, seed);

@@ -148,7 +148,8 @@ TEST_F(InfoDataset, DecodeReadsEveryImageAndNamesABrokenOne) {
   ASSERT_EQ(result.exit_code, 0) << result.output;
   EXPECT_NE(result.output.find("decode: 4 frames, 16 images ("), std::string::npos) << result.output;
   EXPECT_NE(result.output.find(" on 2 threads: "), std::string::npos) << result.output;
-  EXPECT_EQ(RunMcvo("info --dataset " + Quote(root.string()) + " --threads 2").exit_code, 2);  // needs --decode
+  EXPECT_EQ(RunMcvo("info --dataset " + Quote(root.string()) + " --threads 2").exit_code,
+            2);  // needs --decode
 
   // The third frame's image_02 is replaced by text.
   fs::path broken;

@@ -133,7 +133,8 @@ TEST_F(LoopCli, RepeatedFacadesWithoutRevisitGiveNoLoop) {
     implausible += line.find("implausible: the loop implies a correction") != std::string::npos ? 1 : 0;
   }
   std::printf("repeated facades: %d candidates verified, %d rejected as implausible, %d accepted\n",
-              result["loop_candidates_verified"].get<int>(), implausible, result["loops_accepted"].get<int>());
+              result["loop_candidates_verified"].get<int>(), implausible,
+              result["loops_accepted"].get<int>());
   EXPECT_GE(implausible, 1);
   EXPECT_EQ(result["loops_accepted"].get<int>(), 0);
   EXPECT_FALSE(result["loop_closure_applied"].get<bool>());

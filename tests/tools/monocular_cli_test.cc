@@ -101,7 +101,8 @@ TEST(MonocularCli, OneCameraRunsAtAnArbitraryScaleAndSaysSo) {
               Quote((out1 / "trajectory.tum").string()) + " --out " + Quote(rigid_out.string()));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(r.output.find("--align auto"), std::string::npos) << r.output;
-  EXPECT_GT(ReadJson(rigid_out / "eval.json")["ate"]["translation_m"]["rmse"].get<double>(), 10.0 * eval_rmse);
+  EXPECT_GT(ReadJson(rigid_out / "eval.json")["ate"]["translation_m"]["rmse"].get<double>(),
+            10.0 * eval_rmse);
 }
 
 // The KITTI-360 3-camera rig (no overlapping views) on the first 60 frames of
@@ -129,11 +130,12 @@ TEST(MonocularCli, ARigWhoseScaleIsNeverObservableFinishesUpToScale) {
   ASSERT_TRUE(result.contains("monocular_fallback")) << result.dump();
   const std::string camera = run["dataset"]["cameras"][0].get<std::string>();
   EXPECT_EQ(run["dataset"]["cameras"].size(), 1u);
-  EXPECT_EQ(result["monocular_fallback"].get<std::string>().rfind(camera + " alone at an arbitrary scale", 0), 0u)
+  EXPECT_EQ(result["monocular_fallback"].get<std::string>().rfind(camera + " alone at an arbitrary scale", 0),
+            0u)
       << result["monocular_fallback"];
   const double ate = result["ate_percent_of_path"].get<double>();
-  std::printf("straight road, 3 cameras without overlap: %s alone, Sim3 ATE %.3f %% of %.1f m\n", camera.c_str(),
-              ate, result["gt_path_length_m"].get<double>());
+  std::printf("straight road, 3 cameras without overlap: %s alone, Sim3 ATE %.3f %% of %.1f m\n",
+              camera.c_str(), ate, result["gt_path_length_m"].get<double>());
   EXPECT_LT(ate, 1.0);
   const std::string scale_log = mcvo::ReadFileToString(out / "scale_log.csv");
   EXPECT_NE(scale_log.find("offline fallback: the metric scale was never observable"), std::string::npos)

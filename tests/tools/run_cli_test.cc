@@ -39,9 +39,10 @@ constexpr int kFrames = 60;
 const fs::path& Dataset() {
   static const fs::path dir = [] {
     std::string error;
-    const fs::path seq = mcvo::test::CachedSynth("--preset kitti360 --frames " + std::to_string(kFrames) +
-                                                     " --image-scale 0.35 --samples 1 --blackout image_03:20:10",
-                                                 &error);
+    const fs::path seq =
+        mcvo::test::CachedSynth("--preset kitti360 --frames " + std::to_string(kFrames) +
+                                    " --image-scale 0.35 --samples 1 --blackout image_03:20:10",
+                                &error);
     EXPECT_FALSE(seq.empty()) << error;
     return seq;
   }();

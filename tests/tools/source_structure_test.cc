@@ -11,13 +11,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cstdio>
-#include <utility>
 #include <cctype>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -55,7 +55,8 @@ std::string StripNonCode(const std::string& text) {
           ++i;
         } else if (c == '#' && line_start) {
           mode = Mode::kPreprocessor;
-        } else if (c == 'R' && next == '"' && (i == 0 || !std::isalnum(static_cast<unsigned char>(text[i - 1])))) {
+        } else if (c == 'R' && next == '"' &&
+                   (i == 0 || !std::isalnum(static_cast<unsigned char>(text[i - 1])))) {
           const size_t open = text.find('(', i + 2);
           if (open == std::string::npos) return out;
           raw_end = ")" + text.substr(i + 2, open - i - 2) + "\"";
@@ -161,8 +162,8 @@ BlockKind Classify(std::string header) {
     if (StartsWithWord(header, word) && paren == std::string::npos) return BlockKind::kScope;
   }
   if (header.find(')') == std::string::npos) return BlockKind::kOther;
-  const bool assigned = header.substr(0, paren).find('=') != std::string::npos &&
-                        header.find("operator") == std::string::npos;
+  const bool assigned =
+      header.substr(0, paren).find('=') != std::string::npos && header.find("operator") == std::string::npos;
   if (assigned) return BlockKind::kOther;
   const char last = header.back();
   if (HasInitList(header) && (std::isalnum(static_cast<unsigned char>(last)) || last == '_' || last == '>') &&
@@ -233,24 +234,24 @@ std::vector<fs::path> SourceFiles() {
 // The scanner itself, on code whose answer is known.
 TEST(SourceStructure, ScannerFindsFunctionsAndTheirLengths) {
   const std::string source =
-      "#include <x>\n"                                  // 1
-      "namespace a {\n"                                 // 2
-      "struct S {\n"                                    // 3
-      "  int f() const {\n"                             // 4
-      "    auto g = [](int x) { return x; };\n"         // 5
-      "    const char* s = \"}{\"; // }\n"              // 6
-      "    return g('}');\n"                            // 7
-      "  }\n"                                           // 8
-      "  int v = 0;\n"                                  // 9
-      "};\n"                                            // 10
-      "const int kTable[] = {1, 2};\n"                  // 11
-      "S::S(int x) : v_(x), w_{x} {\n"                  // 12
-      "  /* } */ if (x) {\n"                            // 13
-      "  }\n"                                           // 14
-      "}\n"                                             // 15
-      "}  // namespace a\n"                             // 16
-      "template <typename T>\n"                         // 17
-      "T h(T t) noexcept { return t; }\n";              // 18
+      "#include <x>\n"                           // 1
+      "namespace a {\n"                          // 2
+      "struct S {\n"                             // 3
+      "  int f() const {\n"                      // 4
+      "    auto g = [](int x) { return x; };\n"  // 5
+      "    const char* s = \"}{\"; // }\n"       // 6
+      "    return g('}');\n"                     // 7
+      "  }\n"                                    // 8
+      "  int v = 0;\n"                           // 9
+      "};\n"                                     // 10
+      "const int kTable[] = {1, 2};\n"           // 11
+      "S::S(int x) : v_(x), w_{x} {\n"           // 12
+      "  /* } */ if (x) {\n"                     // 13
+      "  }\n"                                    // 14
+      "}\n"                                      // 15
+      "}  // namespace a\n"                      // 16
+      "template <typename T>\n"                  // 17
+      "T h(T t) noexcept { return t; }\n";       // 18
   const std::vector<FunctionSpan> found = FindFunctions(source);
   ASSERT_EQ(found.size(), 3u);
   EXPECT_EQ(found[0].first_line, 4);
@@ -285,8 +286,8 @@ TEST(SourceStructure, NoFunctionOverOneHundredFiftyLines) {
       longest.push_back({f.Lines(), fs::relative(file, MCVO_SOURCE_DIR).string() + ":" +
                                         std::to_string(f.first_line) + " " + f.header.substr(0, 80)});
       if (f.Lines() > kMaxFunctionLines) {
-        over.push_back(fs::relative(file, MCVO_SOURCE_DIR).string() + ":" + std::to_string(f.first_line) + ": " +
-                       std::to_string(f.Lines()) + " lines: " + f.header.substr(0, 100));
+        over.push_back(fs::relative(file, MCVO_SOURCE_DIR).string() + ":" + std::to_string(f.first_line) +
+                       ": " + std::to_string(f.Lines()) + " lines: " + f.header.substr(0, 100));
       }
     }
   }

@@ -62,10 +62,10 @@
 
 #include "mcvo/backend/backend_options.h"
 #include "mcvo/camera/camera.h"
-#include "mcvo/map/sparse_map.h"
 #include "mcvo/geometry/rigid3d.h"
 #include "mcvo/initializer/initializer.h"
 #include "mcvo/map/observations.h"
+#include "mcvo/map/sparse_map.h"
 
 namespace mcvo {
 

@@ -84,9 +84,9 @@
 #include "mcvo/camera/camera.h"
 #include "mcvo/geometry/rigid3d.h"
 #include "mcvo/initializer/camera_sfm.h"
-#include "mcvo/map/observations.h"
 #include "mcvo/initializer/rig_consistency.h"
 #include "mcvo/initializer/rig_scale.h"
+#include "mcvo/map/observations.h"
 
 namespace mcvo {
 
@@ -101,10 +101,10 @@ struct OverlapStartOptions {
   // many frames; and when a whole sequence posed no frame, `mcvo run` runs it
   // again with 0 (odometry_stage.cc).
   int after_failed_windows = 100;
-  int min_points = 30;           // cross-camera landmarks, inliers, seen in the newest frame
-  double min_angle_deg = 0.5;    // smallest triangulation angle of a cross-camera landmark
-  double max_depth_m = 200.0;    // farthest cross-camera landmark kept
-  int min_frame_inliers = 20;    // observations a window frame's pose must fit
+  int min_points = 30;         // cross-camera landmarks, inliers, seen in the newest frame
+  double min_angle_deg = 0.5;  // smallest triangulation angle of a cross-camera landmark
+  double max_depth_m = 200.0;  // farthest cross-camera landmark kept
+  int min_frame_inliers = 20;  // observations a window frame's pose must fit
   double max_relative_scale_sigma = 0.02;
 };
 

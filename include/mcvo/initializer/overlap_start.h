@@ -47,6 +47,7 @@ namespace mcvo {
 // failure std::nullopt and *reason says why, one line.
 std::optional<InitializationResult> InitialiseFromOverlap(const Rig& rig,
                                                           const std::deque<RigFrameObservations>& window,
-                                                          const InitializerOptions& options, std::string* reason);
+                                                          const InitializerOptions& options,
+                                                          std::string* reason);
 
 }  // namespace mcvo

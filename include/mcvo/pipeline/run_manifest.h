@@ -26,7 +26,7 @@ struct RunManifestDataset {
   std::string root;    // as opened
   std::string format;  // generic, kitti360, euroc, kalibr
   std::string name;
-  int frames = -1;     // frames run (after --frames); -1: not recorded
+  int frames = -1;  // frames run (after --frames); -1: not recorded
   std::vector<std::string> cameras;
 };
 
@@ -68,8 +68,9 @@ struct RunManifest {
 
   // The top-level members a read found, of the right type (FromJson); a
   // manifest built in code has them all.
-  std::set<std::string> present = {"program", "version", "build", "command_line", "config_source", "config",
-                                   "dataset", "inputs", "outputs_sha256", "result", "timing"};
+  std::set<std::string> present = {"program",        "version", "build",   "command_line",
+                                   "config_source",  "config",  "dataset", "inputs",
+                                   "outputs_sha256", "result",  "timing"};
   bool Has(const std::string& member) const { return present.count(member) != 0; }
 
   // The members in run.json's order: program, version, build, command_line,
