@@ -38,12 +38,6 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-std::vector<Rigid3d> CamFromRig(const Rig& rig) {
-  std::vector<Rigid3d> out;
-  for (const Camera& camera : rig.cameras) out.push_back(camera.cam_from_rig);
-  return out;
-}
-
 std::string ScaleSourceNote(const InitializationResult& init, const Rig& rig) {
   if (init.source == ScaleSource::kArbitrary) {
     return StrCat("arbitrary scale (one camera, ", rig.cameras[init.principal_camera].name,
@@ -70,7 +64,7 @@ struct Estimator::Impl {
         threads(std::max(1, threads_in)),
         initializer(rig_in, init_options_in, threads),
         // window_size keyframes, the newest frame, and the frame being tracked.
-        window(CamFromRig(rig_in), options_in, options_in.window_size + 2),
+        window(rig_in.CamFromRig(), options_in, options_in.window_size + 2),
         problem(rig_in, options_in),
         scale(rig_in, options_in) {}
 

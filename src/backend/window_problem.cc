@@ -13,12 +13,6 @@ namespace {
 // distance, relative to it.
 constexpr double kScaleAnchorRelativeSigma = 1e-3;
 
-std::vector<Rigid3d> CamFromRig(const Rig& rig) {
-  std::vector<Rigid3d> out;
-  for (const Camera& camera : rig.cameras) out.push_back(camera.cam_from_rig);
-  return out;
-}
-
 }  // namespace
 
 struct WindowProblem::Blocks {
@@ -34,7 +28,7 @@ struct WindowProblem::Blocks {
 
 WindowProblem::WindowProblem(const Rig& rig, const BackendOptions& options)
     : num_cameras_(rig.NumCameras()),
-      cam_from_rig_(CamFromRig(rig)),
+      cam_from_rig_(rig.CamFromRig()),
       options_(options),
       sqrt_information_(options.virtual_focal_px / options.reprojection_sigma_px),
       pose_manifold_(NewPoseManifold()),

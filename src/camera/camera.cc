@@ -101,6 +101,13 @@ double Camera::MeanFocalLength() const {
   return VisitCameraModel(model, [&](auto m) { return decltype(m)::MeanFocalLength(params.data()); });
 }
 
+std::vector<Rigid3d> Rig::CamFromRig() const {
+  std::vector<Rigid3d> out;
+  out.reserve(cameras.size());
+  for (const Camera& camera : cameras) out.push_back(camera.cam_from_rig);
+  return out;
+}
+
 int Rig::FindCamera(std::string_view camera_name) const {
   for (int i = 0; i < NumCameras(); ++i) {
     if (cameras[i].name == camera_name) return i;

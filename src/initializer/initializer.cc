@@ -547,8 +547,7 @@ struct Initializer::Impl {
     if (Monocular()) {
       result.relative_scale_sigma = 0.0;  // nothing to measure: the unit is chosen
     } else if (options.max_rig_ba_iterations > 0) {
-      std::vector<Rigid3d> cam_from_rig;
-      for (const Camera& camera : rig.cameras) cam_from_rig.push_back(camera.cam_from_rig);
+      const std::vector<Rigid3d> cam_from_rig = rig.CamFromRig();
       std::vector<RigWindowObservation> observations;
       for (int t = anchor; t <= newest; ++t) {
         const RigFrameObservations& frame = window[static_cast<size_t>(t)];

@@ -175,8 +175,7 @@ std::optional<InitializationResult> InitialiseFromOverlap(const Rig& rig,
   }
 
   // Step 3: the rig window BA over every observation.
-  std::vector<Rigid3d> cam_from_rig;
-  for (const Camera& camera : rig.cameras) cam_from_rig.push_back(camera.cam_from_rig);
+  const std::vector<Rigid3d> cam_from_rig = rig.CamFromRig();
   std::map<uint64_t, Eigen::Vector3d> initial;
   for (const auto& [id, cp] : points) initial.emplace(id, cp.point_in_world);
   std::vector<RigWindowObservation> observations;

@@ -111,7 +111,7 @@ struct LoopCloser::Impl {
                        vocabulary.descriptor_size());
     }
     masks.resize(static_cast<size_t>(rig.NumCameras()));
-    for (const Camera& camera : rig.cameras) cam_from_rig.push_back(camera.cam_from_rig);
+    cam_from_rig = rig.CamFromRig();
   }
 
   const Rig rig;

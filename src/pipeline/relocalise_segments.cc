@@ -116,8 +116,7 @@ Located LocateByTracking(const DatasetIndex& index, const LoopClosureOptions& cl
                          const std::vector<size_t>& queries) {
   const Rig& rig = index.rig;
   const int n = rig.NumCameras();
-  std::vector<Rigid3d> cam_from_rig;
-  for (const Camera& camera : rig.cameras) cam_from_rig.push_back(camera.cam_from_rig);
+  const std::vector<Rigid3d> cam_from_rig = rig.CamFromRig();
   // Map keyframes, latest first.
   std::vector<LoopKeyframe> sources;
   for (size_t k = map.size(); k-- > 0;) sources.push_back(ToLoopKeyframe(index, keyframes[map[k]], threads));

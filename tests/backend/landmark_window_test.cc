@@ -20,12 +20,6 @@ namespace {
 
 using testing::LoadPresetRig;
 
-std::vector<Rigid3d> CamFromRig(const Rig& rig) {
-  std::vector<Rigid3d> out;
-  for (const Camera& camera : rig.cameras) out.push_back(camera.cam_from_rig);
-  return out;
-}
-
 // Points around the route (x forward in KITTI-360's rig frame), each with a
 // feature id; frames every `step_m` along x.
 class WindowFixture : public ::testing::Test {
@@ -105,7 +99,7 @@ class WindowFixture : public ::testing::Test {
 };
 
 TEST_F(WindowFixture, TriangulatesExactlyWithBaselineAndNotWithout) {
-  LandmarkWindow window(CamFromRig(rig_), options_, 4);
+  LandmarkWindow window(rig_.CamFromRig(), options_, 4);
   for (int k = 0; k < 3; ++k) AddFrame(&window, k, TruePose(k));
   ASSERT_GT(window.landmarks().size(), 100u);
   for (const auto& [id, lm] : window.landmarks()) {
@@ -129,7 +123,7 @@ TEST_F(WindowFixture, TriangulatesExactlyWithBaselineAndNotWithout) {
   // below the 0.5° bound, nothing is triangulated from motion; image_00's
   // landmarks that image_01 sees too still are, from the stereo baseline.
   step_m_ = 0.01;
-  LandmarkWindow close(CamFromRig(rig_), options_, 4);
+  LandmarkWindow close(rig_.CamFromRig(), options_, 4);
   for (int k = 0; k < 3; ++k) AddFrame(&close, k, TruePose(k));
   close.TriangulatePending();
   int stereo = 0;
@@ -147,7 +141,7 @@ TEST_F(WindowFixture, TriangulatesExactlyWithBaselineAndNotWithout) {
 }
 
 TEST_F(WindowFixture, RemovingTheAnchorFrameReanchorsWhereThePointWas) {
-  LandmarkWindow window(CamFromRig(rig_), options_, 4);
+  LandmarkWindow window(rig_.CamFromRig(), options_, 4);
   for (int k = 0; k < 3; ++k) AddFrame(&window, k, TruePose(k));
   window.TriangulatePending();
   const WindowFrame* first = window.frames().front();
@@ -177,7 +171,7 @@ TEST_F(WindowFixture, RemovingTheAnchorFrameReanchorsWhereThePointWas) {
 }
 
 TEST_F(WindowFixture, AnOutlierObservationIsRemovedAndTheAnchorKept) {
-  LandmarkWindow window(CamFromRig(rig_), options_, 4);
+  LandmarkWindow window(rig_.CamFromRig(), options_, 4);
   for (int k = 0; k < 3; ++k) AddFrame(&window, k, TruePose(k));
   window.TriangulatePending();
   auto it = std::find_if(window.landmarks().begin(), window.landmarks().end(),
@@ -197,7 +191,7 @@ TEST_F(WindowFixture, AnOutlierObservationIsRemovedAndTheAnchorKept) {
 }
 
 TEST_F(WindowFixture, BundleAdjustmentRestoresPerturbedPosesAndDepths) {
-  LandmarkWindow window(CamFromRig(rig_), options_, 5);
+  LandmarkWindow window(rig_.CamFromRig(), options_, 5);
   std::vector<WindowFrame*> frames;
   for (int k = 0; k < 4; ++k) frames.push_back(AddFrame(&window, k, TruePose(k)));
   window.TriangulatePending();
@@ -238,7 +232,7 @@ TEST_F(WindowFixture, BundleAdjustmentRestoresPerturbedPosesAndDepths) {
 }
 
 TEST_F(WindowFixture, TheFramePoolHoldsItsCapacityAndReusesReleasedSlots) {
-  LandmarkWindow window(CamFromRig(rig_), options_, 2);
+  LandmarkWindow window(rig_.CamFromRig(), options_, 2);
   WindowFrame* a = window.AcquireFrame();
   WindowFrame* b = window.AcquireFrame();
   EXPECT_NE(a, b);

@@ -89,6 +89,8 @@ struct Rig {
   int NumCameras() const { return static_cast<int>(cameras.size()); }
   // Index of the camera with this name, or -1.
   int FindCamera(std::string_view name) const;
+  // Every camera's cam_from_rig, in rig order.
+  std::vector<Rigid3d> CamFromRig() const;
 };
 
 }  // namespace mcvo
