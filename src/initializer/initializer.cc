@@ -27,7 +27,6 @@
 namespace mcvo {
 namespace {
 
-
 using initializer_internal::AngleBetween;
 using initializer_internal::BearingsById;
 using initializer_internal::CrossCameraMeasurements;

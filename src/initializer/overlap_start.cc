@@ -51,7 +51,8 @@ struct Sighting {
 std::vector<Sighting> SightingsOf(const RigFrameObservations& frame, int num_cameras) {
   std::vector<Sighting> out;
   for (int c = 0; c < num_cameras; ++c) {
-    for (const FeatureObservation& f : frame.cameras[static_cast<size_t>(c)]) out.push_back({c, f.id, f.bearing});
+    for (const FeatureObservation& f : frame.cameras[static_cast<size_t>(c)])
+      out.push_back({c, f.id, f.bearing});
   }
   for (const CrossCameraObservation& x : frame.cross_camera) {
     if (x.camera_b < 0 || x.camera_b >= num_cameras || x.camera_b == x.camera_a) continue;
@@ -75,7 +76,8 @@ void TriangulateCross(const Rig& rig, const RigFrameObservations& frame, const R
     auto own_it = own.find(x.camera_a);
     if (own_it == own.end()) {
       std::map<uint64_t, Eigen::Vector3d> bearings;
-      for (const FeatureObservation& f : frame.cameras[static_cast<size_t>(x.camera_a)]) bearings[f.id] = f.bearing;
+      for (const FeatureObservation& f : frame.cameras[static_cast<size_t>(x.camera_a)])
+        bearings[f.id] = f.bearing;
       own_it = own.emplace(x.camera_a, std::move(bearings)).first;
     }
     const auto bearing_a = own_it->second.find(x.id);
@@ -85,7 +87,8 @@ void TriangulateCross(const Rig& rig, const RigFrameObservations& frame, const R
     const Rigid3d a_from_b = cam_a.cam_from_rig * cam_b.cam_from_rig.Inverse();
     const Eigen::Vector3d f_a = bearing_a->second.normalized();
     const Eigen::Vector3d f_b = a_from_b.rotation * x.bearing_b.normalized();
-    const std::optional<Eigen::Vector3d> p = TriangulateMidpoint(Eigen::Vector3d::Zero(), f_a, a_from_b.translation, f_b);
+    const std::optional<Eigen::Vector3d> p =
+        TriangulateMidpoint(Eigen::Vector3d::Zero(), f_a, a_from_b.translation, f_b);
     if (!p || !p->allFinite() || !(p->norm() <= options.max_depth_m)) continue;
     const double angle = AngleBetween(*p, *p - a_from_b.translation);
     if (!(angle >= min_angle)) continue;
@@ -100,8 +103,8 @@ void TriangulateCross(const Rig& rig, const RigFrameObservations& frame, const R
 
 // Pose-only robust adjustment of one rig frame against fixed landmarks;
 // returns the inliers within max_px at the result.
-int PoseFrame(const Rig& rig, const std::vector<Sighting>& sightings, const std::map<uint64_t, CrossPoint>& points,
-              double max_px, Rigid3d* world_from_rig) {
+int PoseFrame(const Rig& rig, const std::vector<Sighting>& sightings,
+              const std::map<uint64_t, CrossPoint>& points, double max_px, Rigid3d* world_from_rig) {
   using CostFunction = ceres::AutoDiffCostFunction<TangentBearingResidual, 2, 7, 3>;
   using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
   std::map<uint64_t, Eigen::Vector3d> fixed;  // copies Ceres may point at
@@ -111,7 +114,8 @@ int PoseFrame(const Rig& rig, const std::vector<Sighting>& sightings, const std:
   }
   auto error_px = [&](const Rigid3d& pose, const Sighting& s) {
     const Camera& camera = rig.cameras[static_cast<size_t>(s.camera)];
-    return ReprojectionPx(pose * camera.cam_from_rig.Inverse(), fixed.at(s.id), s.bearing, camera.MeanFocalLength());
+    return ReprojectionPx(pose * camera.cam_from_rig.Inverse(), fixed.at(s.id), s.bearing,
+                          camera.MeanFocalLength());
   };
   PoseBlock block = ToPoseBlock(*world_from_rig);
   for (const double threshold : {kFirstPassFactor * max_px, max_px}) {
@@ -125,9 +129,9 @@ int PoseFrame(const Rig& rig, const std::vector<Sighting>& sightings, const std:
     for (const Sighting& s : sightings) {
       if (fixed.count(s.id) == 0 || !(error_px(start, s) <= threshold)) continue;
       const Camera& camera = rig.cameras[static_cast<size_t>(s.camera)];
-      problem.AddResidualBlock(
-          new CostFunction(new TangentBearingResidual(s.bearing, camera.MeanFocalLength(), camera.cam_from_rig)),
-          &huber, block.data(), fixed.at(s.id).data());
+      problem.AddResidualBlock(new CostFunction(new TangentBearingResidual(
+                                   s.bearing, camera.MeanFocalLength(), camera.cam_from_rig)),
+                               &huber, block.data(), fixed.at(s.id).data());
       problem.SetParameterBlockConstant(fixed.at(s.id).data());
     }
     if (problem.NumResidualBlocks() < 6) return 0;
@@ -148,7 +152,8 @@ int PoseFrame(const Rig& rig, const std::vector<Sighting>& sightings, const std:
 
 std::optional<InitializationResult> InitialiseFromOverlap(const Rig& rig,
                                                           const std::deque<RigFrameObservations>& window,
-                                                          const InitializerOptions& options, std::string* reason) {
+                                                          const InitializerOptions& options,
+                                                          std::string* reason) {
   const OverlapStartOptions& o = options.overlap_start;
   const int num_cameras = rig.NumCameras();
   const int num_frames = static_cast<int>(window.size());
@@ -166,8 +171,9 @@ std::optional<InitializationResult> InitialiseFromOverlap(const Rig& rig,
     const std::vector<Sighting> sightings = SightingsOf(window[static_cast<size_t>(t)], num_cameras);
     const int inliers = PoseFrame(rig, sightings, points, max_px, &predicted);
     if (inliers < o.min_frame_inliers) {
-      *reason = StrCat("overlap start: frame ", window[static_cast<size_t>(t)].frame_index, " fits ", inliers,
-                       " observations < ", o.min_frame_inliers, " (", points.size(), " cross-camera landmarks)");
+      *reason =
+          StrCat("overlap start: frame ", window[static_cast<size_t>(t)].frame_index, " fits ", inliers,
+                 " observations < ", o.min_frame_inliers, " (", points.size(), " cross-camera landmarks)");
       return std::nullopt;
     }
     poses[static_cast<size_t>(t)] = predicted;
@@ -209,7 +215,8 @@ std::optional<InitializationResult> InitialiseFromOverlap(const Rig& rig,
   }
   const int count = static_cast<int>(information.size());
   if (count < o.min_points) {
-    *reason = StrCat("overlap start: ", count, " cross-camera landmarks in the newest frame < ", o.min_points);
+    *reason =
+        StrCat("overlap start: ", count, " cross-camera landmarks in the newest frame < ", o.min_points);
     return std::nullopt;
   }
   // At most kMaxIndependentPoints independent measurements of the mean information.
@@ -218,9 +225,9 @@ std::optional<InitializationResult> InitialiseFromOverlap(const Rig& rig,
   const double effective = std::min(count, kMaxIndependentPoints) * sum / count;
   const double sigma = 1.0 / std::sqrt(effective);
   if (!(sigma <= o.max_relative_scale_sigma)) {
-    *reason = StrCat("overlap start: scale sigma ", FormatFixed(100.0 * sigma, 2), " % > ",
-                     FormatFixed(100.0 * o.max_relative_scale_sigma, 2), " % (", count,
-                     " cross-camera landmarks)");
+    *reason =
+        StrCat("overlap start: scale sigma ", FormatFixed(100.0 * sigma, 2), " % > ",
+               FormatFixed(100.0 * o.max_relative_scale_sigma, 2), " % (", count, " cross-camera landmarks)");
     return std::nullopt;
   }
 
