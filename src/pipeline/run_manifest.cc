@@ -103,7 +103,8 @@ RunManifest RunManifest::Read(const std::filesystem::path& path) {
   // a syntax error; the ordered parse keeps the members' order.
   const std::string text = ReadFileToString(path);
   io_internal::ParseJson(text, path.string());
-  const Json json = Json::parse(text, nullptr, /*allow_exceptions=*/true, /*ignore_comments=*/true);
+  const Json json = Json::parse(text, nullptr, /*allow_exceptions=*/false, /*ignore_comments=*/true);
+  if (json.is_discarded()) MCVO_THROW_INPUT(path.string(), ": JSON parse error");
   if (!json.is_object()) MCVO_THROW_INPUT(path.string(), ": expected a JSON object (run.json of mcvo run)");
   return FromJson(json);
 }
