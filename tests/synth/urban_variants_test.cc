@@ -275,6 +275,28 @@ TEST(UrbanBlockTest, LapsOptionIsChecked) {
 
 // ------------------------------------------------------------- urban_repeated
 
+// The closest two rig positions come in space among pairs more than
+// `min_arc_m` apart along the path (how near the route comes back).
+double ClosestReturnM(const std::vector<PathSample>& path, double min_arc_m) {
+  double closest = 1e9;
+  for (size_t i = 0; i < path.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (path[i].arc_length_m - path[j].arc_length_m <= min_arc_m) break;
+      closest = std::min(closest, (path[i].position - path[j].position).norm());
+    }
+  }
+  return closest;
+}
+
+// The (material, texture seed) pairs of the building facades.
+std::set<std::pair<Material, uint32_t>> FacadeTextures(const SceneWithRoute& s) {
+  std::set<std::pair<Material, uint32_t>> textures;
+  for (const Quad& q : s.scene.quads()) {
+    if (IsBuildingFacade(q.material)) textures.insert({q.material, q.texture_seed});
+  }
+  return textures;
+}
+
 TEST(UrbanRepeatedTest, OpenRouteNeverComesBackNearAnEarlierPlace) {
   for (uint64_t seed : {0, 1, 2, 3, 4}) {
     const SceneWithRoute s = BuildScene("urban_repeated", seed);
@@ -293,13 +315,7 @@ TEST(UrbanRepeatedTest, OpenRouteNeverComesBackNearAnEarlierPlace) {
     // Every pair of rig positions more than 100 m apart along the path is
     // more than 30 m apart in space.
     const std::vector<PathSample> path = SamplePath(trajectory, 50'000'000);
-    double closest = 1e9;
-    for (size_t i = 0; i < path.size(); ++i) {
-      for (size_t j = 0; j < i; ++j) {
-        if (path[i].arc_length_m - path[j].arc_length_m <= 100.0) break;
-        closest = std::min(closest, (path[i].position - path[j].position).norm());
-      }
-    }
+    const double closest = ClosestReturnM(path, 100.0);
     EXPECT_GT(path.back().arc_length_m, 400.0);
     EXPECT_GE(closest, 30.0) << "seed " << seed;
     std::printf("[measured] urban_repeated seed %d: route %.1f m, rig path %.1f m, closest return %.1f m\n",
@@ -332,20 +348,10 @@ TEST(UrbanSmallVariantsTest, ShorterRoutesOfTheSameShape) {
     EXPECT_LE(trajectory.LengthM(), 275.0) << "seed " << seed;
     // Never back near an earlier place: positions more than 60 m apart
     // along the path are more than 20 m apart.
-    const std::vector<PathSample> path = SamplePath(trajectory, 50'000'000);
-    double closest = 1e9;
-    for (size_t i = 0; i < path.size(); ++i) {
-      for (size_t j = 0; j < i; ++j) {
-        if (path[i].arc_length_m - path[j].arc_length_m <= 60.0) break;
-        closest = std::min(closest, (path[i].position - path[j].position).norm());
-      }
-    }
+    const double closest = ClosestReturnM(SamplePath(trajectory, 50'000'000), 60.0);
     EXPECT_GE(closest, 20.0) << "seed " << seed;
-    std::set<std::pair<Material, uint32_t>> facade_textures;
-    for (const Quad& q : repeated.scene.quads()) {
-      if (IsBuildingFacade(q.material)) facade_textures.insert({q.material, q.texture_seed});
-    }
-    EXPECT_EQ(static_cast<int>(facade_textures.size()), kUrbanRepeatedFacadeTextures) << "seed " << seed;
+    EXPECT_EQ(static_cast<int>(FacadeTextures(repeated).size()), kUrbanRepeatedFacadeTextures)
+        << "seed " << seed;
     std::printf(
         "[measured] seed %d: urban_small_block lap %.1f m; urban_small_repeated rig path %.1f m, closest "
         "return %.1f m\n",
