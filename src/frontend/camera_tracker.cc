@@ -26,6 +26,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "classic_detectors.h"
 #include "mcvo/frontend/bearing_ransac.h"
 #include "mcvo/frontend/selection.h"
 #include "mcvo/util/error.h"
@@ -257,40 +258,82 @@ void CameraTracker::Impl::RejectByRansac(std::vector<int>* kept, std::vector<cv:
   }
 }
 
+namespace {
+
+// Detections [begin, end) of `all`, as Detections of their own.
+Detections SliceDetections(const Detections& all, size_t begin, size_t end) {
+  Detections out;
+  out.pixels.assign(all.pixels.begin() + static_cast<std::ptrdiff_t>(begin),
+                    all.pixels.begin() + static_cast<std::ptrdiff_t>(end));
+  out.scores.assign(all.scores.begin() + static_cast<std::ptrdiff_t>(begin),
+                    all.scores.begin() + static_cast<std::ptrdiff_t>(end));
+  if (!all.descriptors.empty() && end > begin) {
+    out.descriptors = all.descriptors.rowRange(static_cast<int>(begin), static_cast<int>(end)).clone();
+  }
+  return out;
+}
+
+}  // namespace
+
 void CameraTracker::Impl::AddNewFeatures(const cv::Mat& image, CameraFrameResult* result) const {
   const int wanted = max_features - result->stats.tracked;
-  if (wanted > 0) {
-    auto start = Clock::now();
-    const Detections detections =
-        detector->Detect(image, mask, std::max(1, options.candidate_factor) * wanted, border_px);
-    result->stats.seconds_detect = SecondsSince(start);
-    start = Clock::now();
-    SelectionInput selection;
-    for (const TrackedFeature& f : result->features) selection.tracked.push_back(f.pixel);
-    selection.candidates = &detections;
-    selection.image_width = camera.width;
-    selection.image_height = camera.height;
-    selection.mask = mask;
-    selection.max_features = max_features;
-    selection.min_distance_px = options.min_distance_px;
-    const std::vector<int> chosen = SelectFeatures(selection, options.selection);
-    for (int index : chosen) {
-      TrackedFeature f;
-      f.pixel = detections.pixels[static_cast<size_t>(index)];
-      f.score = detections.scores[static_cast<size_t>(index)];
-      result->features.push_back(f);
+  if (wanted <= 0) return;
+  auto start = Clock::now();
+  const int cap = std::max(1, options.candidate_factor) * wanted;
+  const Detections detections = detector->Detect(image, mask, cap, border_px);
+  result->stats.seconds_detect = SecondsSince(start);
+  start = Clock::now();
+  // Two passes: the best `cap` candidates by score first (the first `cap`
+  // detections); only when they cannot place every wanted feature (strong
+  // corners bunched on a few edges) the spread extras after them fill the
+  // rest, kept away from everything chosen so far.
+  const size_t top = std::min(detections.size(), static_cast<size_t>(cap));
+  SelectionInput selection;
+  for (const TrackedFeature& f : result->features) selection.tracked.push_back(f.pixel);
+  selection.image_width = camera.width;
+  selection.image_height = camera.height;
+  selection.mask = mask;
+  selection.max_features = max_features;
+  selection.min_distance_px = options.min_distance_px;
+  std::vector<int> chosen;
+  const Detections first = SliceDetections(detections, 0, top);
+  selection.candidates = &first;
+  for (int index : SelectFeatures(selection, options.selection)) chosen.push_back(index);
+  if (static_cast<int>(chosen.size()) < wanted && top < detections.size()) {
+    for (int index : chosen) selection.tracked.push_back(detections.pixels[static_cast<size_t>(index)]);
+    // Only extras in grid cells that hold no feature yet (coverage holes).
+    const internal::CandidateGrid grid(camera.width, camera.height);
+    std::vector<bool> occupied(static_cast<size_t>(grid.NumCells()), false);
+    for (const Eigen::Vector2f& p : selection.tracked) occupied[static_cast<size_t>(grid.Cell(grid.Col(p.x()), grid.Row(p.y())))] = true;
+    std::vector<size_t> hole_rows;
+    for (size_t k = top; k < detections.size(); ++k) {
+      const Eigen::Vector2f& p = detections.pixels[k];
+      if (!occupied[static_cast<size_t>(grid.Cell(grid.Col(p.x()), grid.Row(p.y())))]) hole_rows.push_back(k);
     }
-    if (!detections.descriptors.empty() && !chosen.empty()) {
-      const cv::Mat new_rows = SelectRows(detections.descriptors, chosen);
-      if (result->descriptors.empty()) {
-        result->descriptors = new_rows;
-      } else {
-        cv::vconcat(result->descriptors, new_rows, result->descriptors);
-      }
+    Detections extras;
+    for (size_t k : hole_rows) {
+      extras.pixels.push_back(detections.pixels[k]);
+      extras.scores.push_back(detections.scores[k]);
     }
-    result->stats.new_features = static_cast<int>(chosen.size());
-    result->stats.seconds_select = SecondsSince(start);
+    selection.candidates = &extras;
+    for (int index : SelectFeatures(selection, options.selection)) chosen.push_back(static_cast<int>(hole_rows[static_cast<size_t>(index)]));
   }
+  for (int index : chosen) {
+    TrackedFeature f;
+    f.pixel = detections.pixels[static_cast<size_t>(index)];
+    f.score = detections.scores[static_cast<size_t>(index)];
+    result->features.push_back(f);
+  }
+  if (!detections.descriptors.empty() && !chosen.empty()) {
+    const cv::Mat new_rows = SelectRows(detections.descriptors, chosen);
+    if (result->descriptors.empty()) {
+      result->descriptors = new_rows;
+    } else {
+      cv::vconcat(result->descriptors, new_rows, result->descriptors);
+    }
+  }
+  result->stats.new_features = static_cast<int>(chosen.size());
+  result->stats.seconds_select = SecondsSince(start);
 }
 
 void CameraTracker::AssignNewIds(uint64_t* next_id, CameraFrameResult* result) {

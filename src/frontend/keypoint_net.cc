@@ -11,6 +11,7 @@
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "classic_detectors.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 
@@ -244,12 +245,14 @@ Detections KeypointNetDetector::Detect(const cv::Mat& image, const cv::Mat& mask
                                     m.decode, static_cast<double>(image.cols) / net_size.width,
                                     static_cast<double>(image.rows) / net_size.height);
 
-  // Mask, image border and the cap (detections are already sorted).
+  // Mask and image border, then the cap with its spread extras, as the
+  // Shi-Tomasi detector does (CapWithSpreadExtras).
   Detections out;
-  std::vector<int> keep;
+  std::vector<int> admissible;
+  std::vector<Eigen::Vector2f> admissible_pixels;
+  std::vector<float> admissible_scores;
   const float lo = static_cast<float>(std::max(0, border_px));
   for (size_t i = 0; i < all.size(); ++i) {
-    if (max_candidates >= 0 && keep.size() >= static_cast<size_t>(max_candidates)) break;
     const Eigen::Vector2f& p = all.pixels[i];
     if (p.x() < lo || p.y() < lo || p.x() > image.cols - 1 - lo || p.y() > image.rows - 1 - lo) continue;
     if (!mask.empty()) {
@@ -257,7 +260,14 @@ Detections KeypointNetDetector::Detect(const cv::Mat& image, const cv::Mat& mask
                 y = std::clamp(cvRound(p.y()), 0, image.rows - 1);
       if (mask.at<uint8_t>(y, x) == 0) continue;
     }
-    keep.push_back(static_cast<int>(i));
+    admissible.push_back(static_cast<int>(i));
+    admissible_pixels.push_back(p);
+    admissible_scores.push_back(all.scores[i]);
+  }
+  const int cap = max_candidates >= 0 ? max_candidates : static_cast<int>(admissible.size());
+  std::vector<int> keep;
+  for (int k : internal::CapWithSpreadExtras(admissible_pixels, admissible_scores, cap, image.cols, image.rows)) {
+    keep.push_back(admissible[static_cast<size_t>(k)]);
   }
   out.pixels.reserve(keep.size());
   out.scores.reserve(keep.size());

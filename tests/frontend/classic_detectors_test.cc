@@ -5,6 +5,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "../../src/frontend/classic_detectors.h"
 #include "mcvo/frontend/detector.h"
 #include "mcvo/util/error.h"
 
@@ -108,11 +109,118 @@ TEST(ShiTomasiTest, MaskBorderCapAndOrder) {
   const Detections all = detector->Detect(image, mask, 100000, 16);
   EXPECT_GT(all.size(), 100u);
   ExpectSortedAndAdmissible(all, image, mask, 16);
+  // A cap of 50: the best 50 by score (the uncapped list's first 50), then
+  // up to 50 spread extras, all in score order.
   const Detections capped = detector->Detect(image, mask, 50, 16);
-  ASSERT_EQ(capped.size(), 50u);
-  for (size_t i = 0; i < capped.size(); ++i) EXPECT_EQ(capped.pixels[i], all.pixels[i]);
+  ASSERT_GT(capped.size(), 50u);
+  ASSERT_LE(capped.size(), 100u);
+  ExpectSortedAndAdmissible(capped, image, mask, 16);
+  for (size_t i = 0; i < 50; ++i) EXPECT_EQ(capped.pixels[i], all.pixels[i]);
+  for (size_t i = 50; i < capped.size(); ++i) {
+    const auto it = std::find(all.pixels.begin(), all.pixels.end(), capped.pixels[i]);
+    ASSERT_NE(it, all.pixels.end()) << capped.pixels[i].transpose();
+    EXPECT_GE(it - all.pixels.begin(), 50);
+    EXPECT_EQ(all.scores[static_cast<size_t>(it - all.pixels.begin())], capped.scores[i]);
+  }
   EXPECT_EQ(detector->Detect(image, mask, 0, 16).size(), 0u);
   EXPECT_EQ(detector->Detect(cv::Mat(100, 100, CV_8UC1, cv::Scalar(7)), cv::Mat(), 100, 0).size(), 0u);
+}
+
+// Strong corners on the left, a weak texture (10 grey levels) on the right,
+// sensor noise (sigma 2 grey levels) everywhere: a cap far below the number
+// of strong corners still gives the right half candidates, while a flat band
+// with noise only gets none.
+TEST(ShiTomasiTest, WeakTextureBesideStrongCornersKeepsCandidatesNoiseDoesNot) {
+  const int width = 480, height = 240;
+  cv::Mat image = Checkerboard(width, height);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 2.0);
+  std::uniform_int_distribution<int> grey(120, 130);
+  cv::Mat weak(height, width / 2, CV_8UC1);
+  for (int y = 0; y < weak.rows; y += 6) {
+    for (int x = 0; x < weak.cols; x += 6) weak(cv::Rect(x, y, 6, 6) & cv::Rect(0, 0, weak.cols, weak.rows)) = grey(rng);
+  }
+  cv::GaussianBlur(weak, weak, cv::Size(3, 3), 0.7);
+  weak.copyTo(image(cv::Rect(width / 2, 0, width / 2, height)));
+  image(cv::Rect(width / 2, 180, width / 2, height - 180)) = 125;  // flat band
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      image.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(image.at<uint8_t>(y, x) + noise(rng));
+    }
+  }
+  auto detector = Make(DetectorType::kShiTomasi);
+  const Detections all = detector->Detect(image, cv::Mat(), 100000, 4);
+  const Detections capped = detector->Detect(image, cv::Mat(), 60, 4);
+  ASSERT_EQ(capped.size(), 120u);  // the best 60 and 60 spread extras
+  ExpectSortedAndAdmissible(capped, image, cv::Mat(), 4);
+  const auto count = [](const Detections& d, const cv::Rect& region, size_t begin = 0) {
+    return std::count_if(d.pixels.begin() + static_cast<std::ptrdiff_t>(begin), d.pixels.end(),
+                         [&](const Eigen::Vector2f& p) { return region.contains(cv::Point(p.x(), p.y())); });
+  };
+  const cv::Rect left(0, 0, width / 2, height), weak_part(width / 2 + 4, 0, width / 2 - 4, 170),
+      noisy(width / 2 + 4, 190, width / 2 - 8, height - 190);
+  // The weak texture is far below 1 % of the checkerboard's response, yet
+  // detected; the best 60 are all checkerboard corners, and the extras
+  // spread over the weak half too.
+  EXPECT_GT(count(all, weak_part), 100);
+  EXPECT_EQ(count(capped, left), count(capped, left, 60) + 60);
+  EXPECT_GE(count(capped, weak_part, 60), 15);
+  // The noise band stays below the noise floor.
+  EXPECT_EQ(count(all, noisy), 0);
+}
+
+TEST(CapWithSpreadExtrasTest, TheTopByScoreThenSpreadExtras) {
+  // 320 x 160 (cells of 28 px): ten strong points in cell (0, 0), one weak
+  // point in each of cells 1..4 of row 0, and a second weak one in cell 1.
+  std::vector<Eigen::Vector2f> pixels;
+  std::vector<float> scores;
+  for (int k = 0; k < 10; ++k) {
+    pixels.emplace_back(2.0f + k, 3.0f);
+    scores.push_back(100.0f - k);
+  }
+  for (int c = 1; c <= 4; ++c) {
+    pixels.emplace_back(28.0f * c + 5.0f, 5.0f);
+    scores.push_back(1.0f * c);
+  }
+  pixels.emplace_back(40.0f, 20.0f);
+  scores.push_back(0.5f);
+  // Cap 3: the best three (0, 1, 2), then three extras by cell rank: the
+  // best of cells 0 (3), 4 (13) and 3 (12); in score order.
+  EXPECT_EQ(internal::CapWithSpreadExtras(pixels, scores, 3, 320, 160), (std::vector<int>{0, 1, 2, 3, 13, 12}));
+  // Cap 12: the best twelve and the three left over.
+  EXPECT_EQ(internal::CapWithSpreadExtras(pixels, scores, 12, 320, 160).size(), 15u);
+  EXPECT_TRUE(internal::CapWithSpreadExtras(pixels, scores, 0, 320, 160).empty());
+}
+
+TEST(SpatiallyBalancedOrderTest, EveryCellsBestBeforeAnyCellsSecond) {
+  // 320 x 160: cells of sqrt(320 * 160 / 64) = 28 px, 12 x 6 cells.
+  const internal::CandidateGrid grid(320, 160);
+  EXPECT_EQ(grid.side(), 28);
+  EXPECT_EQ(grid.cols(), 12);
+  EXPECT_EQ(grid.rows(), 6);
+  EXPECT_EQ(grid.Rect(11, 5), cv::Rect(308, 140, 12, 20));
+  // Ten strong points in cell (0, 0), one weak point in each of cells 1..4 of row 0.
+  std::vector<Eigen::Vector2f> pixels;
+  std::vector<float> scores;
+  for (int k = 0; k < 10; ++k) {
+    pixels.emplace_back(2.0f + k, 3.0f);
+    scores.push_back(100.0f - k);
+  }
+  for (int c = 1; c <= 4; ++c) {
+    pixels.emplace_back(28.0f * c + 5.0f, 5.0f);
+    scores.push_back(1.0f * c);
+  }
+  // All fit: every index, by decreasing score.
+  const std::vector<int> all = internal::SpatiallyBalancedOrder(pixels, scores, 100, 320, 160);
+  ASSERT_EQ(all.size(), pixels.size());
+  for (size_t k = 1; k < all.size(); ++k) EXPECT_GE(scores[all[k - 1]], scores[all[k]]);
+  // Cap 6: the five cells' best (0, 10..13), then cell 0's second (1);
+  // returned by decreasing score.
+  const std::vector<int> six = internal::SpatiallyBalancedOrder(pixels, scores, 6, 320, 160);
+  EXPECT_EQ(six, (std::vector<int>{0, 1, 13, 12, 11, 10}));
+  // Cap 3: the three best cell winners.
+  EXPECT_EQ(internal::SpatiallyBalancedOrder(pixels, scores, 3, 320, 160), (std::vector<int>{0, 13, 12}));
+  EXPECT_TRUE(internal::SpatiallyBalancedOrder(pixels, scores, 0, 320, 160).empty());
 }
 
 TEST(OrbTest, DescriptorsMaskBorderAndOrder) {

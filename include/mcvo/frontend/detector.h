@@ -30,9 +30,13 @@ class Detector {
  public:
   virtual ~Detector() = default;
   virtual std::string Name() const = 0;
-  // Up to max_candidates detections in a CV_8UC1 image, none where `mask`
-  // (CV_8UC1, same size, may be empty) is 0 nor within border_px of the
-  // image border. Deterministic. Not thread-safe: one detector per camera.
+  // Detections in a CV_8UC1 image, none where `mask` (CV_8UC1, same size,
+  // may be empty) is 0 nor within border_px of the image border: the best
+  // max_candidates by score and, for Shi-Tomasi and the networks, up to
+  // max_candidates more spread over the image (regions the best left
+  // without candidates; ORB returns none). Sorted by score, so the first
+  // max_candidates are the best. Deterministic. Not thread-safe: one
+  // detector per camera.
   virtual Detections Detect(const cv::Mat& image, const cv::Mat& mask, int max_candidates, int border_px) = 0;
   // Descriptor length (floats or bytes), 0 without descriptors.
   virtual int DescriptorSize() const = 0;
