@@ -257,7 +257,8 @@ WindowFrame* LandmarkWindow::FarthestFromOldest() const {
 
 KeyframeEstimate LandmarkWindow::FinishedKeyframe(const WindowFrame* frame) {
   KeyframeEstimate out{frame->frame_index, frame->t_ns, frame->segment, frame->WorldFromRig(), {}, {}};
-  for (int c = 0; c < static_cast<int>(frame->obs.cameras.size()); ++c) {
+  const int num_cameras = static_cast<int>(frame->obs.cameras.size());
+  for (int c = 0; c < num_cameras; ++c) {
     for (const FeatureObservation& f : frame->obs.cameras[c]) {
       auto it = landmarks_.find(f.id);
       if (it == landmarks_.end() || !UsableInBa(it->second)) continue;
@@ -265,6 +266,17 @@ KeyframeEstimate LandmarkWindow::FinishedKeyframe(const WindowFrame* frame) {
       out.observations.push_back({c, static_cast<int64_t>(f.id), f.pixel});
       out.observation_points.push_back(LandmarkInWorld(it->second));
       it->second.map_position = out.observation_points.back();
+    }
+    // Camera c's observations of other cameras' landmarks (cross-camera
+    // matches): in the map they tie the cameras' landmarks together, so a
+    // global bundle adjustment sees the baseline (the metric scale).
+    for (const CrossCameraObservation& x : frame->obs.cross_camera) {
+      if (x.camera_b != c) continue;
+      auto it = landmarks_.find(x.id);
+      if (it == landmarks_.end() || !UsableInBa(it->second)) continue;
+      if (!HasObservation(it->second, frame, c)) continue;
+      out.observations.push_back({c, static_cast<int64_t>(x.id), x.pixel_b});
+      out.observation_points.push_back(LandmarkInWorld(it->second));
     }
   }
   return out;

@@ -329,11 +329,19 @@ TEST(EstimatorTest, SparseMapOfKeyframesAndLandmarksMatchesTheTruth) {
       ++observations;
       ASSERT_GE(ob.camera, 0);
       ASSERT_LT(ob.camera, rig.NumCameras());
-      // The observation is the input's pixel of that feature in that camera.
-      const auto& features = truth.frames[kf.frame_index].cameras[ob.camera];
-      const bool in_input = std::any_of(features.begin(), features.end(), [&](const FeatureObservation& f) {
-        return static_cast<int64_t>(f.id) == ob.landmark_id && (f.pixel - ob.pixel).norm() == 0.0;
-      });
+      // The observation is the input's pixel of that feature in that camera,
+      // or of its cross-camera match in that camera (another camera's feature).
+      const RigFrameObservations& input = truth.frames[kf.frame_index];
+      const auto& features = input.cameras[ob.camera];
+      const bool in_input =
+          std::any_of(features.begin(), features.end(),
+                      [&](const FeatureObservation& f) {
+                        return static_cast<int64_t>(f.id) == ob.landmark_id && (f.pixel - ob.pixel).norm() == 0.0;
+                      }) ||
+          std::any_of(input.cross_camera.begin(), input.cross_camera.end(), [&](const CrossCameraObservation& x) {
+            return x.camera_b == ob.camera && static_cast<int64_t>(x.id) == ob.landmark_id &&
+                   (x.pixel_b - ob.pixel).norm() == 0.0;
+          });
       EXPECT_TRUE(in_input);
       auto lm = out.landmarks.find(ob.landmark_id);
       if (lm == out.landmarks.end()) continue;
