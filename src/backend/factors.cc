@@ -487,6 +487,102 @@ ceres::CostFunction* NewReprojectionFactorSameFrameAutoDiff(const Eigen::Vector3
 
 namespace {
 
+// A world point X seen from camera c of a rig pose {t, q}:
+//   w = X - t,  p_rig = R^T w,  p = R_c p_rig + t_c   (R_c, t_c: cam_from_rig),
+// r = s B (u - b), u = p / |p|. With J = s B (I - u u^T) / |p| and
+// J_rig = J R_c: d r / d X = J_rig R^T, d r / d t = -J_rig R^T, d r / d q =
+// J_rig InverseRotationJacobian(q, w).
+class WorldPointFactor final : public ceres::SizedCostFunction<2, kPoseParamSize, 3> {
+ public:
+  WorldPointFactor(const Eigen::Vector3d& observed_bearing, const Rigid3d& cam_from_rig, double sqrt_information)
+      : bearing_(observed_bearing.normalized()),
+        basis_(TangentBasis(bearing_)),
+        cam_rotation_(cam_from_rig.RotationMatrix()),
+        cam_translation_(cam_from_rig.translation),
+        sqrt_information_(sqrt_information) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const RigidParams pose(parameters[0]);
+    const Eigen::Vector3d w = Eigen::Map<const Eigen::Vector3d>(parameters[1]) - pose.translation;
+    const Eigen::Matrix3d rig_from_world = pose.rotation.transpose();
+    const Eigen::Vector3d p = cam_rotation_ * (rig_from_world * w) + cam_translation_;
+    const double norm = p.norm();
+    if (!(norm > 0.0)) return false;
+    const Eigen::Vector3d u = p / norm;
+    const Eigen::Vector2d r = basis_ * (u - bearing_);
+    residuals[0] = sqrt_information_ * r[0];
+    residuals[1] = sqrt_information_ * r[1];
+    double* j_pose = BlockJacobian(jacobians, 0);
+    double* j_point = BlockJacobian(jacobians, 1);
+    if (j_pose == nullptr && j_point == nullptr) return true;
+    const Matrix23 j_p = (sqrt_information_ / norm) * (basis_ - (basis_ * u) * u.transpose());
+    const Matrix23 j_rig = j_p * cam_rotation_;
+    const Matrix23 j_world = j_rig * rig_from_world;
+    if (j_pose != nullptr) {
+      Eigen::Map<PoseJacobian> j(j_pose);
+      j.leftCols<3>() = -j_world;
+      j.rightCols<4>() = j_rig * InverseRotationJacobian(pose.q, w);
+    }
+    if (j_point != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> j(j_point);
+      j = j_world;
+    }
+    return true;
+  }
+
+ private:
+  const Eigen::Vector3d bearing_;
+  const Matrix23 basis_;
+  const Eigen::Matrix3d cam_rotation_;
+  const Eigen::Vector3d cam_translation_;
+  const double sqrt_information_;
+};
+
+struct WorldPointFunctor {
+  Eigen::Vector3d bearing;
+  Matrix23 basis;
+  Eigen::Matrix3d cam_rotation;
+  Eigen::Vector3d cam_translation;
+  double sqrt_information;
+
+  template <typename T>
+  bool operator()(const T* pose, const T* point, T* residual) const {
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t(pose), x(point);
+    const Eigen::Map<const Eigen::Quaternion<T>> q(pose + 3);
+    const Eigen::Matrix<T, 3, 1> p =
+        cam_rotation.cast<T>() * (q.toRotationMatrix().transpose() * (x - t)) + cam_translation.cast<T>();
+    const T norm = p.norm();
+    if (!(norm > T(0))) return false;
+    const Eigen::Matrix<T, 2, 1> r = basis.cast<T>() * (p / norm - bearing.cast<T>());
+    residual[0] = T(sqrt_information) * r[0];
+    residual[1] = T(sqrt_information) * r[1];
+    return true;
+  }
+};
+
+void CheckWorldPointInputs(const Eigen::Vector3d& observed_bearing, double sqrt_information) {
+  MCVO_CHECK_MSG(observed_bearing.allFinite() && observed_bearing.norm() > 0.0 && sqrt_information > 0.0,
+                 "world point factor: bearing must be finite and non-zero, sqrt_information > 0");
+}
+
+}  // namespace
+
+ceres::CostFunction* NewWorldPointFactor(const Eigen::Vector3d& observed_bearing, const Rigid3d& cam_from_rig,
+                                         double sqrt_information) {
+  CheckWorldPointInputs(observed_bearing, sqrt_information);
+  return new WorldPointFactor(observed_bearing, cam_from_rig, sqrt_information);
+}
+
+ceres::CostFunction* NewWorldPointFactorAutoDiff(const Eigen::Vector3d& observed_bearing,
+                                                 const Rigid3d& cam_from_rig, double sqrt_information) {
+  CheckWorldPointInputs(observed_bearing, sqrt_information);
+  const Eigen::Vector3d b = observed_bearing.normalized();
+  return new ceres::AutoDiffCostFunction<WorldPointFunctor, 2, kPoseParamSize, 3>(new WorldPointFunctor{
+      b, TangentBasis(b), cam_from_rig.RotationMatrix(), cam_from_rig.translation, sqrt_information});
+}
+
+namespace {
+
 class DistanceAnchorCost final : public ceres::SizedCostFunction<1, kPoseParamSize> {
  public:
   DistanceAnchorCost(const Eigen::Vector3d& origin, double distance, double sigma)

@@ -458,6 +458,51 @@ TEST(ReprojectionFactor, AnalyticJacobiansMatchAutoDiff) {
   EXPECT_LT(worst_jacobian, 1e-9);
 }
 
+TEST(WorldPointFactor, ZeroAtTruthAndAnalyticJacobiansMatchAutoDiff) {
+  std::mt19937 rng(33);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  double worst_truth = 0.0, worst_residual = 0.0, worst_jacobian = 0.0;
+  for (int i = 0; i < 2000; ++i) {
+    const Rigid3d world_from_rig(test::RandomRotation(&rng, M_PI), 20.0 * uniform(rng) * test::RandomUnit(&rng));
+    const Rigid3d cam_from_rig(test::RandomRotation(&rng, M_PI), 1.5 * uniform(rng) * test::RandomUnit(&rng));
+    // A point in any direction of the camera (beyond 90 deg too), 0.3 .. 60 m.
+    const Eigen::Vector3d in_cam = (0.3 + 60.0 * uniform(rng)) * test::RandomUnit(&rng);
+    Eigen::Vector3d point = world_from_rig * (cam_from_rig.Inverse() * in_cam);
+    double pose[kPoseParamSize];
+    PoseToParams(world_from_rig, pose);
+    std::vector<double*> params = {pose, point.data()};
+    // At the truth the residual is zero.
+    {
+      std::unique_ptr<ceres::CostFunction> cost(NewWorldPointFactor(in_cam.normalized(), cam_from_rig, kSqrtInfo));
+      Eigen::Vector2d r;
+      ASSERT_TRUE(cost->Evaluate(params.data(), r.data(), nullptr));
+      worst_truth = std::max(worst_truth, r.norm());
+    }
+    // Off the truth (observed bearing up to 0.5 rad away, the quaternion off
+    // the unit sphere on a quarter of the cases): analytic = AutoDiff.
+    const Eigen::Vector3d axis = in_cam.normalized().cross(test::RandomUnit(&rng)).normalized();
+    const Eigen::Vector3d observed = Eigen::AngleAxisd(0.5 * uniform(rng), axis) * in_cam.normalized();
+    if (i % 4 == 0) {
+      const double factor = 1.0 + 1e-3 * (2.0 * uniform(rng) - 1.0);
+      for (int k = 3; k < kPoseParamSize; ++k) pose[k] *= factor;
+    }
+    std::unique_ptr<ceres::CostFunction> analytic(NewWorldPointFactor(observed, cam_from_rig, kSqrtInfo));
+    std::unique_ptr<ceres::CostFunction> autodiff(NewWorldPointFactorAutoDiff(observed, cam_from_rig, kSqrtInfo));
+    const Evaluation ea = EvaluateWithJacobians(*analytic, params);
+    const Evaluation ed = EvaluateWithJacobians(*autodiff, params);
+    worst_residual = std::max(worst_residual, (ea.residual - ed.residual).norm() / std::max(ed.residual.norm(), 1e-3));
+    for (size_t b = 0; b < ea.jacobians.size(); ++b) {
+      ASSERT_TRUE(ea.jacobians[b].allFinite());
+      worst_jacobian = std::max(worst_jacobian, RelativeDifference(ea.jacobians[b], ed.jacobians[b]));
+    }
+  }
+  std::printf("world point factor: residual at truth %.3g; analytic vs autodiff: residual %.3g, Jacobian %.3g\n",
+              worst_truth, worst_residual, worst_jacobian);
+  EXPECT_LT(worst_truth, 1e-6);
+  EXPECT_LT(worst_residual, 1e-9);
+  EXPECT_LT(worst_jacobian, 1e-9);
+}
+
 TEST(ReprojectionFactor, ConstExtrinsicsMatchExtrinsicBlocks) {
   // The constant-extrinsic variants against the AutoDiff factors with
   // extrinsic blocks: same residual, same Jacobians of the shared blocks.

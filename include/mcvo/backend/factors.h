@@ -124,6 +124,16 @@ ceres::CostFunction* NewReprojectionFactorSameFrameAutoDiff(const Eigen::Vector3
                                                             const Eigen::Vector3d& observed_bearing,
                                                             double sqrt_information);
 
+// A world point (the global bundle adjustment, refine/global_ba.h): the
+// same tangent-plane residual of the point's direction in camera c of a rig
+// pose, r = s B(b) (p/|p| - b), p = cam_from_rig * world_from_rig^-1 * X,
+// the extrinsic fixed. Parameter blocks: world_from_rig[7], point[3] (world
+// coordinates). Analytic Jacobians; the AutoDiff version for tests.
+ceres::CostFunction* NewWorldPointFactor(const Eigen::Vector3d& observed_bearing, const Rigid3d& cam_from_rig,
+                                         double sqrt_information);
+ceres::CostFunction* NewWorldPointFactorAutoDiff(const Eigen::Vector3d& observed_bearing,
+                                                 const Rigid3d& cam_from_rig, double sqrt_information);
+
 // Monocular scale gauge (estimator.h "Monocular"): one residual on a pose
 // block, (|t - origin| - distance) / sigma, where t is the block's
 // translation; origin is a fixed point (the oldest keyframe's position).
