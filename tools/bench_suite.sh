@@ -356,6 +356,7 @@ for r in csv.DictReader(open(tsv), delimiter="\t"):
     row = dict(sequence=r["sequence"], scene=r["scene"], rig=r["rig"], config=r["config"], seed=int(r["seed"]),
                effects=r["effects"], run=r["run"], cameras=expected_cameras(r), frames="", posed="", posed_pct=nan, segments="",
                ate_pct=nan, ate_m=nan, path_m=nan, scale_pct=nan, fps=nan, run_s=nan,
+               ate_pct_pre=nan, scale_pct_pre=nan, ba_s=nan,
                render_s=float(r["render_s"]) if r["render_s"] else nan, status="", warning="")
     record_path = os.path.join(runs_dir, ".batch", "runs", r["run"] + ".json")
     record = json.load(open(record_path)) if os.path.exists(record_path) else {}
@@ -380,6 +381,15 @@ for r in csv.DictReader(open(tsv), delimiter="\t"):
                    warning=res.get("warning", ""))
         if res.get("frames"):
             row["posed_pct"] = 100.0 * res.get("posed_frames", 0) / res["frames"]
+        # Before the global bundle adjustment (refine/global_ba.h): the same
+        # run's trajectory as it left the odometry (and loop closure).
+        ba = res.get("global_ba", {})
+        if ba.get("applied") and not math.isnan(row["path_m"]) and row["path_m"] > 0:
+            row["ate_pct_pre"] = 100.0 * num(ba.get("ate_rmse_m_before")) / row["path_m"]
+            row["scale_pct_pre"] = num(ba.get("scale_error_percent_before"))
+        elif row["status"] == "ok":
+            row["ate_pct_pre"], row["scale_pct_pre"] = row["ate_pct"], row["scale_pct"]
+        row["ba_s"] = num(timing.get("global_ba_s_total"))
     rows.append(row)
 
 
@@ -399,13 +409,15 @@ def f(x, digits=3):
 
 # per sequence (run) CSV
 keys = ["sequence", "scene", "rig", "cameras", "config", "seed", "effects", "frames", "posed", "posed_pct", "segments",
-        "ate_pct", "ate_m", "path_m", "scale_pct", "fps", "run_s", "render_s", "status", "warning"]
+        "ate_pct", "ate_m", "path_m", "scale_pct", "ate_pct_pre", "scale_pct_pre", "fps", "run_s", "ba_s", "render_s",
+        "status", "warning"]
 base = e["OUT_BASE"]
 with open(base + ".csv.tmp", "w", newline="") as out:
     w = csv.writer(out)
     w.writerow(["sequence", "scene", "rig", "cameras", "config", "seed", "effects", "frames", "frames_posed",
                 "frames_posed_percent", "segments", "ate_percent_of_path", "ate_rmse_m", "gt_path_length_m",
-                "scale_error_percent", "frames_per_second", "run_seconds", "render_seconds", "status", "warning"])
+                "scale_error_percent", "ate_percent_before_global_ba", "scale_error_percent_before_global_ba",
+                "frames_per_second", "run_seconds", "global_ba_seconds", "render_seconds", "status", "warning"])
     for row in rows:
         w.writerow([f(row[k], 4) if isinstance(row[k], float) else row[k] for k in keys])
 os.replace(base + ".csv.tmp", base + ".csv")
@@ -441,10 +453,12 @@ for (rig, config), rs in groups.items():
     pm, pw = stat([r["posed_pct"] for r in rs], min)
     am, aw = stat([r["ate_pct"] for r in rs], max)
     sm, sw = stat([r["scale_pct"] for r in rs], max)
+    bam, baw = stat([r["ate_pct_pre"] for r in rs], max)
+    bsm, bsw = stat([r["scale_pct_pre"] for r in rs], max)
     fm, _ = stat([r["fps"] for r in rs], min)
     target = ("ATE <= 0.5 %, scale <= 1 %" if three else "Sim3 ATE <= 0.5 %" if cams == [1] else "ATE <= 0.3 %")
     rig_lines.append(f"| {rig} | {config} | {cams_s} | {n} | {failed} | {mw(pm, pw, 1)} | {mw(am, aw)} | "
-                     f"{mw(sm, sw)} | {f(fm, 1) or '-'} | {target} | {posed_ok}/{n} | {ate_ok}/{n} | "
+                     f"{mw(sm, sw)} | {mw(bam, baw)} | {mw(bsm, bsw)} | {f(fm, 1) or '-'} | {target} | {posed_ok}/{n} | {ate_ok}/{n} | "
                      f"{f'{scale_ok}/{n}' if three else '-'} | {all_ok}/{n} |")
     total["n"] += n
     total["posed"] += posed_ok
@@ -460,8 +474,24 @@ for r in rows:
     mark = "" if r["status"] != "ok" else ("yes" if p and a and (s is None or s) else "no")
     posed = f"{r['posed']}/{r['frames']} ({f(r['posed_pct'], 1)})" if r["frames"] != "" else ""
     seq_lines.append(f"| {r['sequence']} | {r['scene']} | {r['rig']} | {r['config']} | {r['seed']} | {r['effects']} | "
-                     f"{posed} | {r['segments']} | {f(r['ate_pct'])} | {f(r['scale_pct'])} | {f(r['fps'], 1)} | "
+                     f"{posed} | {r['segments']} | {f(r['ate_pct'])} | {f(r['scale_pct'])} | {f(r['ate_pct_pre'])} | "
+                     f"{f(r['scale_pct_pre'])} | {f(r['fps'], 1)} | {f(r['ba_s'], 1)} | "
                      f"{r['status']} | {mark} | {r['warning'].replace('|', '/')} |")
+
+# The global bundle adjustment's effect: the same runs' ATE before and after it.
+pairs = [(r["ate_pct_pre"], r["ate_pct"]) for r in rows
+         if r["status"] == "ok" and not math.isnan(r["ate_pct_pre"]) and not math.isnan(r["ate_pct"]) and r["ate_pct_pre"] > 0]
+global_ba_lines = []
+if pairs:
+    ratios = sorted(after / before for before, after in pairs)
+    better = sum(after < before for before, after in pairs)
+    ba_share = [r["ba_s"] / r["run_s"] for r in rows if not math.isnan(r["ba_s"]) and r["run_s"] > 0]
+    global_ba_lines = [
+        "## Global bundle adjustment (refine/global_ba.h)", "",
+        f"ATE after / before the global BA over the {len(pairs)} runs with a pose: median "
+        f"{statistics.median(ratios):.3f}, best {ratios[0]:.3f}, worst {ratios[-1]:.3f}; lower after in "
+        f"{better} of {len(pairs)}. Its share of the run's wall time: median "
+        f"{100 * statistics.median(ba_share):.1f} %, worst {100 * max(ba_share):.1f} %." if ba_share else "", ""]
 
 run_sum = sum(r["run_s"] for r in rows if not math.isnan(r["run_s"]))
 render_sum = sum(r["render_s"] for r in {x["sequence"]: x for x in rows}.values() if not math.isnan(r["render_s"]))
@@ -494,15 +524,18 @@ lines = [
     measures, "",
     "## Per rig and config", "",
     "| rig | config | cameras | sequences | failed | frames posed % median / worst | ATE % median / worst | "
-    "scale error % median / worst | frames/s median | target | posed >= 99 % | ATE target | scale target | all targets |",
-    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    "scale error % median / worst | before global BA: ATE % | before global BA: scale error % | frames/s median | "
+    "target | posed >= 99 % | ATE target | scale target | all targets |",
+    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     *rig_lines,
-    f"| all | | | {total['n']} | | | | | | | {total['posed']}/{total['n']} | {total['ate']}/{total['n']} | "
+    f"| all | | | {total['n']} | | | | | | | | | {total['posed']}/{total['n']} | {total['ate']}/{total['n']} | "
     f"{total['scale']}/{total['scale_n']} | {total['all']}/{total['n']} |", "",
+    *global_ba_lines,
     "## Per sequence", "",
     "| sequence | scene | rig | config | seed | effects | frames posed (%) | segments | ATE % | scale error % | "
-    "frames/s | status | targets met | warning |",
-    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    "ATE % before global BA | scale error % before global BA | frames/s | global BA s | status | targets met | "
+    "warning |",
+    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     *seq_lines,
 ]
 with open(base + ".md.tmp", "w") as out:

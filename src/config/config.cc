@@ -203,6 +203,20 @@ void Visit(V& v, LoopOptions* o) {
 }
 
 template <typename V>
+void Visit(V& v, GlobalBaOptions* o) {
+  v.Field("enabled", &o->enabled);
+  v.Field("max_iterations", &o->max_iterations);
+  v.Field("outlier_rounds", &o->outlier_rounds);
+  v.Enum("loss", &o->loss, kLossTypeNames);
+  v.Field("loss_scale", &o->loss_scale);
+  v.Field("reprojection_sigma_px", &o->reprojection_sigma_px);
+  v.Field("virtual_focal_px", &o->virtual_focal_px);
+  v.Field("outlier_threshold_px", &o->outlier_threshold_px);
+  v.Field("min_observations", &o->min_observations);
+  v.Field("function_tolerance", &o->function_tolerance);
+}
+
+template <typename V>
 void Visit(V& v, OutputOptions* o) {
   v.Field("report", &o->report);
 }
@@ -246,6 +260,7 @@ void Visit(V& v, PipelineOptions* o) {
   v.Section("initializer", &o->initializer);
   v.Section("backend", &o->backend);
   v.Section("loop", &o->loop);
+  v.Section("refine", &o->refine);
   v.Section("output", &o->output);
   v.Section("colmap", &o->colmap);
   v.Section("runtime", &o->runtime);

@@ -48,6 +48,7 @@ void PipelineOptions::Check() const {
   initializer.Check();
   backend.Check();
   loop.Check();
+  refine.Check();
   runtime.Check();
   try {
     eval.Check();

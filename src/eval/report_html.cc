@@ -149,7 +149,7 @@ std::string TrajectorySection(const ReportInputs& inputs) {
   }
   if (!before.empty()) {
     plot.AddPolyline(project(before), "series-before-loop-closure", kBeforeLoopColour, 2.0, /*dashed=*/true);
-    legend.push_back({"before loop closure", kBeforeLoopColour, LegendEntry::Kind::kDashedLine});
+    legend.push_back({inputs.before_label, kBeforeLoopColour, LegendEntry::Kind::kDashedLine});
   }
   if (!est.empty()) {
     plot.AddPolyline(project(est), "series-estimate", kEstimateColour, 2.0);

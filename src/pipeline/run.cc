@@ -24,6 +24,7 @@
 #include "mcvo/util/sha256.h"
 #include "mcvo/util/strings.h"
 #include "odometry_stage.h"
+#include "refine_stage.h"
 #include "relocalise_segments.h"
 #include "run_outputs.h"
 
@@ -246,8 +247,11 @@ RunSummary RunPipeline(const RunRequest& request) {
   }
   summary.loops_accepted = loops.accepted;
   int map_observations_dropped = 0;
-  const SparseMap map = pipeline_internal::BuildSparseMap(posed, odometry.keyframes, odometry.landmarks,
-                                                          options.backend, &map_observations_dropped);
+  SparseMap map = pipeline_internal::BuildSparseMap(posed, odometry.keyframes, odometry.landmarks, options.backend,
+                                                    &map_observations_dropped);
+  // Global refinement: one rig bundle adjustment over the whole map.
+  const pipeline_internal::RefineOutcome refine =
+      pipeline_internal::RefineGlobally(posed.rig, options.refine, summary.scale_arbitrary, &map, &odometry);
   summary.seconds = SecondsSince(run_start);
   summary.frames_per_second = summary.seconds > 0 ? summary.frames / summary.seconds : 0.0;
   summary.posed_frames = static_cast<int>(odometry.poses.size());
@@ -274,6 +278,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   outputs.odometry = &odometry;
   outputs.loops = vocabulary ? &loops : nullptr;
   outputs.before_loops = &before_loops;
+  outputs.refine = &refine;
   outputs.map = &map;
   outputs.map_observations_dropped = map_observations_dropped;
   outputs.odometry_seconds = odometry_seconds;

@@ -77,16 +77,27 @@ std::string ScaleLogCsv(const Rig& rig, const std::vector<ScaleLogEntry>& scale_
   return csv;
 }
 
-struct Evaluations {
-  std::optional<EvalResult> final;     // trajectory.tum
-  std::optional<EvalResult> odometry;  // trajectory_vo.tum (loops applied)
+// The trajectories a run writes: the final one, and the earlier stages'
+// when a later stage changed them.
+struct StageTrajectories {
+  Trajectory final;            // trajectory.tum
+  std::optional<Trajectory> vo;    // trajectory_vo.tum: the odometry (loop closure or refinement applied)
+  std::optional<Trajectory> loop;  // trajectory_loop.tum: after the pose graph, before refinement (both applied)
 };
 
-// eval/ (and eval_vo/ when loops were applied) against the dataset's
-// ground truth; the summary's accuracy fields. A ground truth that does not
-// cover the run skips the evaluation with a warning.
-Evaluations Evaluate(const RunOutputsInput& in, const Trajectory& trajectory, const Trajectory& trajectory_vo,
-                     bool loops_applied, const std::filesystem::path& dir, RunSummary* summary) {
+struct Evaluations {
+  std::optional<EvalResult> final;     // trajectory.tum
+  std::optional<EvalResult> odometry;  // trajectory_vo.tum
+  std::optional<EvalResult> loop;      // trajectory_loop.tum
+};
+
+// eval/ (and eval_vo/, eval_loop/ for the earlier stages' trajectories)
+// against the dataset's ground truth; the summary's accuracy fields. A
+// ground truth that does not cover the run skips the evaluation with a
+// warning.
+Evaluations Evaluate(const RunOutputsInput& in, const StageTrajectories& trajectories,
+                     const std::filesystem::path& dir, RunSummary* summary) {
+  const Trajectory& trajectory = trajectories.final;
   Evaluations out;
   const DatasetIndex& index = *in.index;
   EvalOptions options = in.request->options.eval;
@@ -117,13 +128,16 @@ Evaluations Evaluate(const RunOutputsInput& in, const Trajectory& trajectory, co
         summary->gt_path_length_m > 0 ? 100.0 * summary->ate_rmse_m / summary->gt_path_length_m : 0.0;
     summary->scale_error_percent = result.scale.scale_error_percent;
     if (result.scale.available) summary->unit_m = result.scale.sim3_scale;
-    if (loops_applied) {
-      out.odometry = EvaluateTrajectory(*index.ground_truth, trajectory_vo, options,
-                                        (index.root / "groundtruth").string(), "trajectory_vo.tum");
-      if (summary->scale_arbitrary) out.odometry->notes.push_back(arbitrary_note);
-      CreateDirectories(dir / "eval_vo");
-      WriteEvalOutputs(dir / "eval_vo", *out.odometry);
-    }
+    const auto evaluate_stage = [&](const Trajectory& stage, const char* file, const char* folder) {
+      EvalResult stage_result = EvaluateTrajectory(*index.ground_truth, stage, options,
+                                                   (index.root / "groundtruth").string(), file);
+      if (summary->scale_arbitrary) stage_result.notes.push_back(arbitrary_note);
+      CreateDirectories(dir / folder);
+      WriteEvalOutputs(dir / folder, stage_result);
+      return stage_result;
+    };
+    if (trajectories.vo) out.odometry = evaluate_stage(*trajectories.vo, "trajectory_vo.tum", "eval_vo");
+    if (trajectories.loop) out.loop = evaluate_stage(*trajectories.loop, "trajectory_loop.tum", "eval_loop");
   } catch (const InputError& e) {
     MCVO_LOG(kWarning, "run: evaluation skipped: ", e.what());
   }
@@ -181,23 +195,36 @@ Json ExportColmap(const RunOutputsInput& in, const std::filesystem::path& dir, d
   return colmap_json;
 }
 
+// One line on the global bundle adjustment for the report.
+std::string GlobalBaSummary(const RunOutputsInput& in) {
+  if (in.refine == nullptr || !in.refine->applied) {
+    return in.refine != nullptr && !in.refine->ba.message.empty() ? "not run: " + in.refine->ba.message : "off";
+  }
+  const GlobalBaResult& ba = in.refine->ba;
+  return StrCat(ba.keyframes_refined, " keyframes, ", ba.landmarks_refined, " landmarks, ", ba.observations_used,
+                " observations (", ba.observations_removed, " removed as outliers); rms error ",
+                FormatFixed(ba.rms_error_px_before, 3), " -> ", FormatFixed(ba.rms_error_px_after, 3), " px");
+}
+
 void WriteReport(const RunOutputsInput& in, const RunSummary& summary, const Evaluations& evals,
-                 const Trajectory& trajectory, const Trajectory& trajectory_vo, bool loops_applied,
-                 const Json& recorded_config, const std::filesystem::path& dir) {
+                 const StageTrajectories& trajectories, const Json& recorded_config,
+                 const std::filesystem::path& dir) {
   const DatasetIndex& index = *in.index;
   const Rig& rig = index.rig;
   ReportInputs report;
   report.title = StrCat("mcvo run: ", index.name, ", ", rig.NumCameras(), " camera(s)");
+  const bool loops_applied = in.loops != nullptr && in.loops->applied;
+  report.before_label = loops_applied ? "odometry (before loop closure)" : "odometry (before global BA)";
   if (evals.final) {
     report.eval = &*evals.final;
-    if (loops_applied) {
+    if (trajectories.vo) {
       report.estimate_before_loop_closure =
-          ApplyAlignment(trajectory_vo, evals.final->gt_world_from_est_world);
+          ApplyAlignment(*trajectories.vo, evals.final->gt_world_from_est_world);
     }
     report.ground_truth = *index.ground_truth;
   } else {
-    report.estimate = trajectory;
-    if (loops_applied) report.estimate_before_loop_closure = trajectory_vo;
+    report.estimate = trajectories.final;
+    report.estimate_before_loop_closure = trajectories.vo;
   }
   for (const ScaleLogEntry& e : in.odometry->scale_log) {
     report.scale_log.push_back(
@@ -216,6 +243,7 @@ void WriteReport(const RunOutputsInput& in, const RunSummary& summary, const Eva
       {"segments relocalised after a loss",
        StrCat(summary.segments_relocalised, " of ", summary.segments - 1)},
       {"posed by the reverse pass (scale applied back)", StrCat(in.odometry->reverse_posed.size())},
+      {"global bundle adjustment", GlobalBaSummary(in)},
       {"scale", summary.scale_arbitrary
                     ? "arbitrary: one camera (monocular); the evaluation aligns with a similarity"
                     : "metric"}};
@@ -242,6 +270,37 @@ Json OutputsSha256(const std::filesystem::path& dir) {
   for (const auto& path : files)
     outputs[std::filesystem::relative(path, dir).generic_string()] = Sha256File(path);
   return outputs;
+}
+
+// run.json's result.global_ba: what the global bundle adjustment did, and
+// the accuracy of the trajectory it started from.
+Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Evaluations& evals) {
+  const RefineOutcome& refine = *in.refine;
+  const GlobalBaResult& ba = refine.ba;
+  Json json;
+  json["applied"] = refine.applied;
+  if (!refine.applied) {
+    if (!ba.message.empty()) json["not_run"] = ba.message;
+    return json;
+  }
+  json["keyframes"] = ba.keyframes_refined;
+  json["components"] = ba.components;
+  json["landmarks"] = ba.landmarks_refined;
+  json["observations"] = ba.observations_used;
+  json["observations_removed"] = ba.observations_removed;
+  json["solves"] = ba.solves;
+  json["iterations"] = ba.iterations;
+  json["initial_cost"] = ba.initial_cost;
+  json["final_cost"] = ba.final_cost;
+  json["rms_error_px_before"] = ba.rms_error_px_before;
+  json["rms_error_px_after"] = ba.rms_error_px_after;
+  json["solver_message"] = ba.message;
+  const std::optional<EvalResult>& before = evals.loop ? evals.loop : evals.odometry;
+  if (before) {
+    json["ate_rmse_m_before"] = before->ate_translation_m.rmse;
+    if (!summary.scale_arbitrary) json["scale_error_percent_before"] = before->scale.scale_error_percent;
+  }
+  return json;
 }
 
 Json ResultJson(const RunOutputsInput& in, const RunSummary& summary, const Evaluations& evals) {
@@ -295,6 +354,7 @@ Json ResultJson(const RunOutputsInput& in, const RunSummary& summary, const Eval
       }
     }
   }
+  if (in.refine != nullptr) result["global_ba"] = GlobalBaJson(in, summary, evals);
   return result;
 }
 
@@ -326,6 +386,7 @@ Json TimingJson(const RunOutputsInput& in, const RunSummary& summary, double col
     timing["loop_verification_s_per_keyframe"] = loops.timing.verification_s / keyframe_count;
     timing["pose_graph_s_total"] = loops.pose_graph_seconds;
   }
+  if (in.refine != nullptr) timing["global_ba_s_total"] = in.refine->ba.seconds;
   return timing;
 }
 
@@ -395,18 +456,25 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
   const OdometryOutput& odometry = *in.odometry;
   const bool loops_applied = in.loops != nullptr && in.loops->applied;
 
-  // Trajectories, logs, statistics.
-  const Trajectory trajectory = PosesTrajectory(odometry.poses);
+  // Trajectories (final, and each earlier stage's that a later one changed), logs, statistics.
+  const bool refined = in.refine != nullptr && in.refine->applied;
+  StageTrajectories trajectories;
+  trajectories.final = PosesTrajectory(odometry.poses);
+  const Trajectory& trajectory = trajectories.final;
   WriteTrajectory(dir / "trajectory.tum", trajectory, TrajectoryFormat::kTum);
   WriteTrajectory(dir / "trajectory_kitti.txt", trajectory, TrajectoryFormat::kKittiIndexed);
   WriteTrajectory(dir / "trajectory_euroc.csv", trajectory, TrajectoryFormat::kEuroc);
   WriteTrajectory(dir / "keyframes.tum", KeyframeTrajectory(odometry.keyframes), TrajectoryFormat::kTum);
-  Trajectory trajectory_vo;
-  if (loops_applied) {
-    // Before loop closure: the odometry's poses.
-    trajectory_vo = PosesTrajectory(in.before_loops->poses);
-    WriteTrajectory(dir / "trajectory_vo.tum", trajectory_vo, TrajectoryFormat::kTum);
-    WriteTrajectory(dir / "keyframes_vo.tum", KeyframeTrajectory(in.before_loops->keyframes),
+  const OdometryBeforeLoops* odometry_only = loops_applied ? in.before_loops : refined ? &in.refine->before : nullptr;
+  if (odometry_only != nullptr) {
+    trajectories.vo = PosesTrajectory(odometry_only->poses);
+    WriteTrajectory(dir / "trajectory_vo.tum", *trajectories.vo, TrajectoryFormat::kTum);
+    WriteTrajectory(dir / "keyframes_vo.tum", KeyframeTrajectory(odometry_only->keyframes), TrajectoryFormat::kTum);
+  }
+  if (loops_applied && refined) {
+    trajectories.loop = PosesTrajectory(in.refine->before.poses);
+    WriteTrajectory(dir / "trajectory_loop.tum", *trajectories.loop, TrajectoryFormat::kTum);
+    WriteTrajectory(dir / "keyframes_loop.tum", KeyframeTrajectory(in.refine->before.keyframes),
                     TrajectoryFormat::kTum);
   }
   if (in.loops != nullptr) WriteFileAtomic(dir / "loops.csv", LoopsCsv(in.loops->attempts));
@@ -414,7 +482,7 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
   WriteFileAtomic(dir / "frame_stats.csv", FrameStatsCsv(rig, odometry));
   WriteFileAtomic(dir / "timing.csv", TimingCsv(odometry));
 
-  const Evaluations evals = Evaluate(in, trajectory, trajectory_vo, loops_applied, dir, summary);
+  const Evaluations evals = Evaluate(in, trajectories, dir, summary);
   double colmap_seconds = 0.0;
   Json colmap_json;
   if (options.colmap.enabled) colmap_json = ExportColmap(in, dir, &colmap_seconds);
@@ -424,7 +492,7 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
   recorded.runtime.threads = 0;  // the thread count does not change the results
   const Json recorded_config = Json::parse(PipelineOptionsToJson(recorded));
   if (options.output.report) {
-    WriteReport(in, *summary, evals, trajectory, trajectory_vo, loops_applied, recorded_config, dir);
+    WriteReport(in, *summary, evals, trajectories, recorded_config, dir);
   }
 
   // run.json: what was run, on what, what came out.

@@ -1,7 +1,8 @@
 // The output stage of `mcvo run` (private to pipeline/): from the odometry,
 // relocalisation and loop closure results, every file of a run
 // (docs/run-outputs.md) written into the staging folder: trajectories
-// (after loop closure, and before it when loops were applied), keyframes,
+// (final; the odometry's and the pose graph's when loop closure or the
+// global bundle adjustment changed them), keyframes,
 // scale_log.csv, frame_stats.csv, timing.csv, loops.csv, the evaluation
 // against ground truth, the COLMAP model, report.html/md and run.json (with
 // the SHA-256 of every other output).
@@ -18,6 +19,7 @@
 #include "mcvo/map/sparse_map.h"
 #include "mcvo/pipeline/run.h"
 #include "odometry_stage.h"
+#include "refine_stage.h"
 #include "relocalise_segments.h"
 
 namespace mcvo::pipeline_internal {
@@ -42,6 +44,7 @@ struct RunOutputsInput {
   const OdometryOutput* odometry = nullptr;
   const LoopOutcome* loops = nullptr;  // when loop closure ran
   const OdometryBeforeLoops* before_loops = nullptr;
+  const RefineOutcome* refine = nullptr;  // the global bundle adjustment stage
   const SparseMap* map = nullptr;
   int map_observations_dropped = 0;
   double odometry_seconds = 0.0;

@@ -103,7 +103,8 @@ TEST_F(LoopCli, RevisitIsClosedAndImprovesTheTrajectory) {
   EXPECT_GE(result["loops_accepted"].get<int>(), 1);
   ASSERT_TRUE(result["loop_closure_applied"].get<bool>());
   EXPECT_LT(result["ate_rmse_m"].get<double>(), result["ate_rmse_m_before_loop_closure"].get<double>());
-  for (const char* file : {"trajectory_vo.tum", "keyframes_vo.tum", "loops.csv", "eval_vo/eval.json"}) {
+  for (const char* file : {"trajectory_vo.tum", "keyframes_vo.tum", "loops.csv", "eval_vo/eval.json",
+                           "trajectory_loop.tum", "keyframes_loop.tum", "eval_loop/eval.json"}) {
     EXPECT_TRUE(fs::is_regular_file(out1 / file)) << file;
   }
   // loops.csv: a header and one line per verified or rejected candidate.
@@ -138,7 +139,9 @@ TEST_F(LoopCli, RepeatedFacadesWithoutRevisitGiveNoLoop) {
   EXPECT_GE(implausible, 1);
   EXPECT_EQ(result["loops_accepted"].get<int>(), 0);
   EXPECT_FALSE(result["loop_closure_applied"].get<bool>());
-  EXPECT_FALSE(fs::exists(out / "trajectory_vo.tum"));
+  // No pose-graph stage to keep: only the odometry's trajectory before the
+  // global bundle adjustment.
+  EXPECT_FALSE(fs::exists(out / "trajectory_loop.tum"));
 }
 
 }  // namespace

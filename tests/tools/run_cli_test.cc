@@ -104,6 +104,21 @@ TEST(RunCli, CompletesAccuratelyAndIsDeterministic) {
   EXPECT_TRUE(hashes1.contains("colmap/sparse/0/points3D.bin"));
   EXPECT_TRUE(hashes1.contains("report.html"));
 
+  // The global bundle adjustment ran (its output is in the hashes above,
+  // so it too is identical at 1 and 2 threads), fitting the observations
+  // better than the odometry did; the odometry's trajectory stays beside it.
+  const nlohmann::json& ba = run1["result"]["global_ba"];
+  std::printf("global BA: %d keyframes, %d landmarks, %d observations, rms %.3f -> %.3f px, ATE before %.3f m\n",
+              ba["keyframes"].get<int>(), ba["landmarks"].get<int>(), ba["observations"].get<int>(),
+              ba["rms_error_px_before"].get<double>(), ba["rms_error_px_after"].get<double>(),
+              ba["ate_rmse_m_before"].get<double>());
+  EXPECT_TRUE(ba["applied"].get<bool>());
+  EXPECT_EQ(ba["keyframes"].get<int>(), run1["result"]["keyframes"].get<int>());
+  EXPECT_LT(ba["rms_error_px_after"].get<double>(), ba["rms_error_px_before"].get<double>());
+  EXPECT_LT(ba["final_cost"].get<double>(), ba["initial_cost"].get<double>());
+  EXPECT_TRUE(hashes1.contains("trajectory_vo.tum"));
+  EXPECT_TRUE(hashes1.contains("eval_vo/eval.json"));
+
   // The COLMAP model of the keyframes and landmarks: a real map, observations
   // that fit it (the map keeps those within 2x the back end's outlier
   // threshold of the final landmarks: about 2 px here), images linked.

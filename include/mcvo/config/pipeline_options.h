@@ -24,6 +24,7 @@
 #include "mcvo/initializer/initializer.h"
 #include "mcvo/loop/loop_closer.h"
 #include "mcvo/loop/pose_graph.h"
+#include "mcvo/refine/global_ba.h"
 #include "mcvo/util/enum_names.h"
 
 namespace mcvo {
@@ -94,6 +95,7 @@ struct PipelineOptions {
   InitializerOptions initializer;
   BackendOptions backend;
   LoopOptions loop;
+  GlobalBaOptions refine;  // the component's own options (refine/global_ba.h)
   OutputOptions output;
   ColmapOutputOptions colmap;
   RuntimeOptions runtime;

@@ -72,6 +72,9 @@ struct ReportInputs {
   // Before loop closure, aligned the same way (ApplyAlignment with the same
   // gt_world_from_est_world): drawn beside the estimate.
   std::optional<Trajectory> estimate_before_loop_closure;
+  // Its legend entry (the odometry before loop closure, or before the global
+  // bundle adjustment when no loop was applied).
+  std::string before_label = "before loop closure";
   std::vector<ReportScaleEntry> scale_log;
   // Names of the cameras, in the order of ReportScaleEntry::camera_scales
   // (missing names read "camera <i>").

@@ -1,0 +1,111 @@
+// Offline global refinement: one rig bundle adjustment over every keyframe
+// and landmark of a run (the sliding window only ever saw 10 keyframes at a
+// time; after loop closure every keyframe still keeps its window-era pose
+// relative to its neighbours).
+//
+// Unknowns: each keyframe's world_from_rig (one pose per frame shared by all
+// cameras: the rig constraint) and each landmark's world position. Residual:
+// the tangent-plane bearing error of backend/factors.h (the same for every
+// camera model, fisheye beyond 90 deg included), here of a world point seen
+// from camera c of keyframe k:
+//   p = cam_from_rig_c * rig_from_world_k * X,
+//   r = sqrt_information * TangentBasis(b) (p / |p| - b),
+// sqrt_information = virtual_focal_px / reprojection_sigma_px, under a
+// robust loss. Extrinsics and intrinsics are fixed (the calibration is
+// given). Solved by Ceres with the sparse Schur complement (landmarks
+// eliminated first, SuiteSparse's CHOLMOD on the reduced camera system) on
+// one thread: Ceres' multi-threaded Schur reduction sums in an order that
+// depends on scheduling, and the result must be byte-identical at any
+// thread count.
+//
+// Gauge: keyframes that share landmarks (directly or through others) form a
+// component; each component's first keyframe is held fixed. With a metric
+// rig the scale is observed through the extrinsics (the cross-camera
+// baselines, or the rig rotating for cameras without overlap) and stays
+// free, so the BA refines it along the whole route; with scale_free (one
+// camera, or a rig whose scale the run could not observe) the distance from
+// the component's first to its last keyframe is held too.
+//
+// Loops: a relative pose measured between two keyframes (loop closure's
+// verified rig pose) enters as a 6-dof constraint with the given sigmas
+// under a Cauchy loss, so that a loop the pose graph closed stays closed
+// (the observations alone only hold each keyframe to its neighbours); it
+// also joins the two keyframes' gauge components.
+//
+// Outliers: after a solve, observations whose error exceeds
+// outlier_threshold_px (at virtual_focal_px) or whose point lies behind the
+// camera are removed, landmarks left with fewer than min_observations
+// observations go with them, and the problem is solved again
+// (outlier_rounds times at most, stopping early when none is removed).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "mcvo/geometry/rigid3d.h"
+#include "mcvo/backend/backend_options.h"
+#include "mcvo/camera/camera.h"
+#include "mcvo/map/sparse_map.h"
+
+namespace mcvo {
+
+struct GlobalBaOptions {
+  bool enabled = true;
+  int max_iterations = 20;             // Levenberg-Marquardt iterations per solve
+  int outlier_rounds = 1;              // solves after the first one, each after removing outliers
+  LossType loss = LossType::kCauchy;   // on every observation
+  double loss_scale = 1.0;             // in units of reprojection_sigma_px
+  double reprojection_sigma_px = 1.5;  // at virtual_focal_px
+  double virtual_focal_px = 460.0;
+  double outlier_threshold_px = 3.0;  // at virtual_focal_px
+  int min_observations = 2;           // per landmark (any camera, any keyframe)
+  double function_tolerance = 1e-7;   // Ceres' relative cost change to stop at
+
+  // Throws InputError naming the field by its config path ("/refine/...").
+  void Check() const;
+};
+
+// A measured relative pose between two keyframes of the map (indices into
+// SparseMap::keyframes): from_T_to = world_from_rig[from]^-1 * world_from_rig[to].
+struct GlobalBaPoseConstraint {
+  int from = 0;
+  int to = 0;
+  Rigid3d from_T_to;
+  double rotation_sigma_rad = 0.0035;  // > 0
+  double translation_sigma_m = 0.1;    // > 0
+  double loss_scale = 3.0;             // Cauchy scale on the whitened residual's norm, in sigmas
+};
+
+struct GlobalBaResult {
+  bool ran = false;     // false: nothing to refine (no landmark seen twice)
+  std::string message;  // why it did not run, or Ceres' final message
+  // The input map refined: keyframe poses and landmark positions moved,
+  // observations removed as outliers gone, landmarks left without any
+  // observation gone. Keyframes without a refined observation keep their
+  // pose, landmarks not refined their position.
+  SparseMap map;
+  std::vector<bool> refined;  // per keyframe: it had a pose block in the last solve
+  int keyframes_refined = 0;
+  int components = 0;            // gauge components (one fixed keyframe each)
+  int landmarks_refined = 0;     // in the last solve
+  int observations_used = 0;     // in the last solve
+  int observations_removed = 0;  // as outliers or behind the camera, over all rounds
+  int solves = 0;
+  int iterations = 0;                // summed over the solves
+  double initial_cost = 0.0;         // Ceres cost (robust) before the first solve
+  double final_cost = 0.0;           // after the last solve
+  double rms_error_px_before = 0.0;  // over the first solve's observations, at virtual_focal_px
+  double rms_error_px_after = 0.0;   // over the last solve's observations
+  double seconds = 0.0;              // wall clock (not deterministic)
+};
+
+// Refines the keyframes and landmarks of `map` (cameras are indices into
+// rig.cameras; observations of a landmark the map does not hold, of an
+// unknown camera or of a pixel the camera cannot unproject are left out of
+// the problem and kept as they are). Deterministic: the same input gives
+// the same output bit for bit.
+GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, bool scale_free,
+                                         const GlobalBaOptions& options,
+                                         const std::vector<GlobalBaPoseConstraint>& constraints = {});
+
+}  // namespace mcvo

@@ -1,0 +1,111 @@
+// Global refinement stage of `mcvo run` (refine_stage.h).
+#include "refine_stage.h"
+
+#include <algorithm>
+#include <map>
+#include <vector>
+
+#include "mcvo/loop/pose_graph.h"
+#include "mcvo/util/logging.h"
+#include "mcvo/util/strings.h"
+
+namespace mcvo::pipeline_internal {
+namespace {
+
+// A keyframe interval shorter than this (metres, or units of an arbitrary
+// scale) is standing still: its stretch is not measured.
+constexpr double kMinIntervalForStretch = 0.05;
+// The stretch of one interval is kept within these bounds (a refined scale
+// change of a few percent is expected; more is a sign of a bad interval).
+constexpr double kMinStretch = 0.8, kMaxStretch = 1.25;
+
+// Per refined keyframe: the length ratio after / before of the interval to
+// the next refined keyframe of the same segment (the previous interval's for
+// the last one; 1 where it cannot be measured).
+std::vector<double> IntervalStretch(const std::vector<int>& segment, const std::vector<Rigid3d>& before,
+                                    const std::vector<Rigid3d>& after) {
+  const size_t n = before.size();
+  std::vector<double> stretch(n, 1.0);
+  for (size_t i = 0; i + 1 < n; ++i) {
+    if (segment[i] != segment[i + 1]) {
+      if (i > 0 && segment[i - 1] == segment[i]) stretch[i] = stretch[i - 1];
+      continue;
+    }
+    const double length_before = (before[i + 1].translation - before[i].translation).norm();
+    const double length_after = (after[i + 1].translation - after[i].translation).norm();
+    if (length_before >= kMinIntervalForStretch && length_after >= kMinIntervalForStretch) {
+      stretch[i] = std::clamp(length_after / length_before, kMinStretch, kMaxStretch);
+    }
+  }
+  if (n >= 2 && segment[n - 1] == segment[n - 2]) stretch[n - 1] = stretch[n - 2];
+  return stretch;
+}
+
+}  // namespace
+
+RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, bool scale_free, SparseMap* map,
+                             OdometryOutput* odometry) {
+  RefineOutcome outcome;
+  if (!options.enabled || map->keyframes.empty()) return outcome;
+  outcome.ba = RunGlobalBundleAdjustment(rig, *map, scale_free, options);
+  const GlobalBaResult& ba = outcome.ba;
+  if (!ba.ran) {
+    MCVO_LOG(kInfo, "run: global bundle adjustment not run: ", ba.message);
+    return outcome;
+  }
+  outcome.applied = true;
+  outcome.before.poses = odometry->poses;
+  outcome.before.keyframes = odometry->keyframes;
+
+  // The refined keyframes are the nodes that carry the correction.
+  std::vector<int64_t> node_t_ns;
+  std::vector<int> node_segment;
+  std::vector<Rigid3d> node_before, node_after;
+  std::map<int, Rigid3d> refined_pose;  // frame index -> refined world_from_rig
+  for (size_t k = 0; k < map->keyframes.size(); ++k) {
+    if (!ba.refined[k]) continue;
+    const MapKeyframe& kf = map->keyframes[k];
+    if (!node_t_ns.empty() && kf.t_ns <= node_t_ns.back()) continue;  // strictly increasing times
+    node_t_ns.push_back(kf.t_ns);
+    node_segment.push_back(kf.segment);
+    node_before.push_back(kf.world_from_rig);
+    node_after.push_back(ba.map.keyframes[k].world_from_rig);
+    refined_pose[kf.frame_index] = ba.map.keyframes[k].world_from_rig;
+  }
+  const std::vector<double> stretch = IntervalStretch(node_segment, node_before, node_after);
+
+  std::vector<int64_t> pose_t_ns;
+  std::vector<Rigid3d> pose_before;
+  for (const auto& [frame_index, pose] : odometry->poses) {
+    pose_t_ns.push_back(pose.t_ns);
+    pose_before.push_back(pose.world_from_body);
+  }
+  const std::vector<Rigid3d> pose_after =
+      CorrectPoses(node_t_ns, node_before, node_after, stretch, pose_t_ns, pose_before);
+  size_t i = 0;
+  for (auto& [frame_index, pose] : odometry->poses) {
+    const auto refined = refined_pose.find(frame_index);
+    pose.world_from_body = refined != refined_pose.end() ? refined->second : pose_after[i];
+    ++i;
+  }
+  for (KeyframeEstimate& kf : odometry->keyframes) {
+    const auto refined = refined_pose.find(kf.frame_index);
+    if (refined != refined_pose.end()) {
+      kf.world_from_rig = refined->second;
+    } else if (const auto pose = odometry->poses.find(kf.frame_index); pose != odometry->poses.end()) {
+      kf.world_from_rig = pose->second.world_from_body;
+    }
+  }
+  for (const MapLandmark& landmark : ba.map.landmarks) {
+    const auto it = odometry->landmarks.find(landmark.id);
+    if (it != odometry->landmarks.end()) it->second = landmark.position_world;
+  }
+  *map = ba.map;
+  MCVO_LOG(kInfo, "run: global bundle adjustment: ", ba.keyframes_refined, " keyframes, ", ba.landmarks_refined,
+           " landmarks, ", ba.observations_used, " observations (", ba.observations_removed, " removed), ",
+           ba.solves, " solve(s), ", ba.iterations, " iterations, rms error ", FormatFixed(ba.rms_error_px_before, 3),
+           " -> ", FormatFixed(ba.rms_error_px_after, 3), " px, ", FormatFixed(ba.seconds, 2), " s");
+  return outcome;
+}
+
+}  // namespace mcvo::pipeline_internal

@@ -1,0 +1,32 @@
+// Global refinement stage of `mcvo run` (private to pipeline/): after loop
+// closure, one rig bundle adjustment over the run's sparse map
+// (refine/global_ba.h); then every pose of the odometry follows its
+// keyframe's correction.
+#pragma once
+
+#include "loop_stage.h"
+#include "mcvo/camera/camera.h"
+#include "mcvo/map/sparse_map.h"
+#include "mcvo/refine/global_ba.h"
+#include "odometry_stage.h"
+
+namespace mcvo::pipeline_internal {
+
+struct RefineOutcome {
+  bool applied = false;  // the bundle adjustment ran and its result is used
+  GlobalBaResult ba;     // ba.map: the refined map (when applied)
+  OdometryBeforeLoops before;  // poses and keyframes as they were before it
+};
+
+// Runs the global bundle adjustment on `map` (BuildSparseMap of `odometry`;
+// scale_free: the run's scale is arbitrary). When it ran, `map` becomes the
+// refined map and `odometry` follows it: refined keyframes take their new
+// poses; every other pose (non-keyframes, keyframes the bundle adjustment
+// did not hold) keeps its pose relative to the latest refined keyframe at
+// or before it, its offset scaled by how much the refined keyframe interval
+// around it stretched (the refined scale applies between keyframes too);
+// refined landmarks take their new positions.
+RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, bool scale_free, SparseMap* map,
+                             OdometryOutput* odometry);
+
+}  // namespace mcvo::pipeline_internal

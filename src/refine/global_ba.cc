@@ -1,0 +1,401 @@
+// Global rig bundle adjustment (refine/global_ba.h).
+#include "mcvo/refine/global_ba.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <map>
+#include <numeric>
+#include <set>
+
+#include <ceres/ceres.h>
+#include <Eigen/Geometry>
+
+#include "mcvo/backend/factors.h"
+#include "mcvo/util/error.h"
+#include "mcvo/util/option_checks.h"
+#include "mcvo/util/strings.h"
+
+namespace mcvo {
+namespace {
+
+// Relative std of the scale gauge of a scale-free problem: tight, it only
+// removes the null space.
+constexpr double kScaleAnchorRelativeSigma = 1e-4;
+
+// A relative pose constraint. Parameter blocks: world_from_rig of `from` and
+// of `to` [7 each]. Residual (6): the rotation error 2 vec(q_meas^-1 q_from^-1
+// q_to) / sigma_r and the translation error (R_from^T (t_to - t_from) -
+// t_meas) / sigma_t.
+class RelativePoseCost {
+ public:
+  explicit RelativePoseCost(const GlobalBaPoseConstraint& c)
+      : rotation_(c.from_T_to.rotation),
+        translation_(c.from_T_to.translation),
+        rotation_weight_(1.0 / c.rotation_sigma_rad),
+        translation_weight_(1.0 / c.translation_sigma_m) {}
+
+  template <typename T>
+  bool operator()(const T* from, const T* to, T* residual) const {
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t_from(from), t_to(to);
+    const Eigen::Map<const Eigen::Quaternion<T>> q_from(from + 3), q_to(to + 3);
+    const Eigen::Quaternion<T> error = rotation_.cast<T>().conjugate() * q_from.conjugate() * q_to;
+    const Eigen::Matrix<T, 3, 1> dt = q_from.conjugate() * (t_to - t_from) - translation_.cast<T>();
+    const T sign = error.w() < T(0) ? T(-1) : T(1);  // the short way round
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = T(2.0 * rotation_weight_) * sign * error.vec()[i];
+      residual[3 + i] = T(translation_weight_) * dt[i];
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Quaterniond rotation_;
+  Eigen::Vector3d translation_;
+  double rotation_weight_, translation_weight_;
+};
+
+struct Observation {
+  int keyframe = 0;
+  int index = 0;     // in the keyframe's observations
+  int camera = 0;
+  int landmark = 0;  // index into Problem's landmark arrays
+  Eigen::Vector3d bearing = Eigen::Vector3d::UnitZ();
+  bool active = true;
+};
+
+int FindRoot(std::vector<int>* parent, int i) {
+  while ((*parent)[static_cast<size_t>(i)] != i) {
+    (*parent)[static_cast<size_t>(i)] = (*parent)[static_cast<size_t>((*parent)[static_cast<size_t>(i)])];
+    i = (*parent)[static_cast<size_t>(i)];
+  }
+  return i;
+}
+
+// The whole problem's state between solves: parameter storage (fixed
+// addresses, in keyframe and landmark-id order, so the elimination order and
+// every sum are the same on every run) and the observations.
+class GlobalProblem {
+ public:
+  GlobalProblem(const Rig& rig, const SparseMap& map, bool scale_free, const GlobalBaOptions& options,
+                const std::vector<GlobalBaPoseConstraint>& constraints)
+      : options_(options),
+        constraints_(constraints),
+        scale_free_(scale_free),
+        cam_from_rig_(rig.CamFromRig()),
+        sqrt_information_(options.virtual_focal_px / options.reprojection_sigma_px) {
+    const std::vector<MapKeyframe>& keyframes = map.keyframes;
+    poses_.resize(keyframes.size());
+    for (size_t k = 0; k < keyframes.size(); ++k) PoseToParams(keyframes[k].world_from_rig, poses_[k].data());
+    std::map<int64_t, int> landmark_index;
+    for (const MapLandmark& landmark : map.landmarks) {
+      if (!landmark_index.emplace(landmark.id, static_cast<int>(landmark_ids_.size())).second) continue;
+      landmark_ids_.push_back(landmark.id);
+      const Eigen::Vector3d& p = landmark.position_world;
+      points_.push_back({p.x(), p.y(), p.z()});
+    }
+    for (size_t k = 0; k < keyframes.size(); ++k) {
+      for (size_t i = 0; i < keyframes[k].observations.size(); ++i) {
+        const MapObservation& ob = keyframes[k].observations[i];
+        if (ob.camera < 0 || ob.camera >= rig.NumCameras()) continue;
+        const auto it = landmark_index.find(ob.landmark_id);
+        if (it == landmark_index.end()) continue;
+        const std::optional<Eigen::Vector3d> bearing = rig.cameras[static_cast<size_t>(ob.camera)].Unproject(ob.pixel);
+        if (!bearing || !bearing->allFinite()) continue;
+        Observation o;
+        o.keyframe = static_cast<int>(k);
+        o.index = static_cast<int>(i);
+        o.camera = ob.camera;
+        o.landmark = it->second;
+        o.bearing = bearing->normalized();
+        observations_.push_back(o);
+      }
+    }
+  }
+
+  // Marks the landmarks with enough active observations and the keyframes
+  // holding one; false when nothing is left to solve.
+  bool SelectActive() {
+    std::vector<int> count(points_.size(), 0);
+    for (const Observation& o : observations_) count[static_cast<size_t>(o.landmark)] += o.active ? 1 : 0;
+    landmark_used_.assign(points_.size(), false);
+    for (size_t i = 0; i < points_.size(); ++i) landmark_used_[i] = count[i] >= options_.min_observations;
+    keyframe_used_.assign(poses_.size(), false);
+    bool any = false;
+    for (const Observation& o : observations_) {
+      if (!Counts(o)) continue;
+      keyframe_used_[static_cast<size_t>(o.keyframe)] = true;
+      any = true;
+    }
+    return any;
+  }
+
+  bool Counts(const Observation& o) const { return o.active && landmark_used_[static_cast<size_t>(o.landmark)]; }
+
+  // One Ceres solve over the active observations.
+  ceres::Solver::Summary Solve(int* components) {
+    ceres::Problem::Options problem_options;
+    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    std::unique_ptr<ceres::Manifold> manifold(NewPoseManifold());
+    std::unique_ptr<ceres::LossFunction> loss = MakeLoss();
+    for (size_t k = 0; k < poses_.size(); ++k) {
+      if (keyframe_used_[k]) problem.AddParameterBlock(poses_[k].data(), kPoseParamSize, manifold.get());
+    }
+    for (const Observation& o : observations_) {
+      if (!Counts(o)) continue;
+      problem.AddResidualBlock(
+          NewWorldPointFactor(o.bearing, cam_from_rig_[static_cast<size_t>(o.camera)], sqrt_information_),
+          loss.get(), poses_[static_cast<size_t>(o.keyframe)].data(), points_[static_cast<size_t>(o.landmark)].data());
+    }
+    std::vector<std::unique_ptr<ceres::LossFunction>> constraint_losses;
+    for (const GlobalBaPoseConstraint& c : constraints_) {
+      if (!ConstraintUsable(c)) continue;
+      constraint_losses.push_back(std::make_unique<ceres::CauchyLoss>(c.loss_scale));
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<RelativePoseCost, 6, kPoseParamSize, kPoseParamSize>(new RelativePoseCost(c)),
+          constraint_losses.back().get(), poses_[static_cast<size_t>(c.from)].data(),
+          poses_[static_cast<size_t>(c.to)].data());
+    }
+    *components = FixGauge(&problem);
+
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (size_t i = 0; i < points_.size(); ++i) {
+      if (landmark_used_[i] && problem.HasParameterBlock(points_[i].data())) {
+        ordering->AddElementToGroup(points_[i].data(), 0);
+      }
+    }
+    for (size_t k = 0; k < poses_.size(); ++k) {
+      if (keyframe_used_[k]) ordering->AddElementToGroup(poses_[k].data(), 1);
+    }
+    ceres::Solver::Options solver_options;
+    solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+    solver_options.sparse_linear_algebra_library_type =
+        ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ? ceres::SUITE_SPARSE
+                                                                               : ceres::EIGEN_SPARSE;
+    solver_options.linear_solver_ordering = ordering;
+    solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    solver_options.max_num_iterations = options_.max_iterations;
+    solver_options.function_tolerance = options_.function_tolerance;
+    solver_options.num_threads = 1;  // see global_ba.h: the Schur reduction's sums must not depend on threads
+    solver_options.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options, &problem, &summary);
+    return summary;
+  }
+
+  // Error (px at the virtual focal) of each counted observation; negative
+  // for a point behind the camera.
+  double Error(const Observation& o) const {
+    const Rigid3d world_from_rig = PoseFromParams(poses_[static_cast<size_t>(o.keyframe)].data());
+    const std::array<double, 3>& p = points_[static_cast<size_t>(o.landmark)];
+    const Eigen::Vector3d point_cam =
+        cam_from_rig_[static_cast<size_t>(o.camera)] * (world_from_rig.Inverse() * Eigen::Vector3d(p[0], p[1], p[2]));
+    const double norm = point_cam.norm();
+    if (!(norm > 1e-12)) return -1.0;
+    const Eigen::Vector3d u = point_cam / norm;
+    if (u.dot(o.bearing) <= 0.0) return -1.0;
+    return options_.reprojection_sigma_px * sqrt_information_ * (TangentBasis(o.bearing) * (u - o.bearing)).norm();
+  }
+
+  double RmsError(int* count) const {
+    double sum = 0.0;
+    *count = 0;
+    for (const Observation& o : observations_) {
+      if (!Counts(o)) continue;
+      const double e = Error(o);
+      sum += e < 0.0 ? 0.0 : e * e;
+      ++*count;
+    }
+    return *count > 0 ? std::sqrt(sum / *count) : 0.0;
+  }
+
+  // Deactivates outliers and points behind the camera; returns how many.
+  int RemoveOutliers() {
+    int removed = 0;
+    for (Observation& o : observations_) {
+      if (!Counts(o)) continue;
+      const double e = Error(o);
+      if (e < 0.0 || e > options_.outlier_threshold_px) {
+        o.active = false;
+        ++removed;
+      }
+    }
+    return removed;
+  }
+
+  void Write(const SparseMap& input, GlobalBaResult* result) const {
+    SparseMap& map = result->map;
+    map = input;
+    result->refined.assign(poses_.size(), false);
+    std::vector<std::vector<bool>> removed(map.keyframes.size());
+    for (size_t k = 0; k < map.keyframes.size(); ++k) removed[k].assign(map.keyframes[k].observations.size(), false);
+    for (const Observation& o : observations_) {
+      if (!o.active) removed[static_cast<size_t>(o.keyframe)][static_cast<size_t>(o.index)] = true;
+    }
+    std::set<int64_t> observed;
+    for (size_t k = 0; k < map.keyframes.size(); ++k) {
+      MapKeyframe& kf = map.keyframes[k];
+      result->refined[k] = keyframe_used_[k];
+      if (keyframe_used_[k]) kf.world_from_rig = PoseFromParams(poses_[k].data());
+      std::vector<MapObservation> kept;
+      for (size_t i = 0; i < kf.observations.size(); ++i) {
+        if (removed[k][i]) continue;
+        kept.push_back(kf.observations[i]);
+        observed.insert(kf.observations[i].landmark_id);
+      }
+      kf.observations = std::move(kept);
+    }
+    std::map<int64_t, size_t> index_of;
+    for (size_t i = 0; i < landmark_ids_.size(); ++i) index_of[landmark_ids_[i]] = i;
+    std::vector<MapLandmark> landmarks;
+    for (const MapLandmark& landmark : map.landmarks) {
+      if (observed.count(landmark.id) == 0) continue;
+      MapLandmark out = landmark;
+      const size_t i = index_of.at(landmark.id);
+      if (landmark_used_[i]) out.position_world = Eigen::Vector3d(points_[i][0], points_[i][1], points_[i][2]);
+      landmarks.push_back(out);
+    }
+    map.landmarks = std::move(landmarks);
+    result->keyframes_refined = static_cast<int>(std::count(keyframe_used_.begin(), keyframe_used_.end(), true));
+    result->landmarks_refined = static_cast<int>(std::count(landmark_used_.begin(), landmark_used_.end(), true));
+  }
+
+ private:
+  std::unique_ptr<ceres::LossFunction> MakeLoss() const {
+    const double scale = options_.loss_scale;  // residuals are in units of sigma
+    switch (options_.loss) {
+      case LossType::kHuber:
+        return std::make_unique<ceres::HuberLoss>(scale);
+      case LossType::kCauchy:
+        return std::make_unique<ceres::CauchyLoss>(scale);
+      case LossType::kTrivial:
+        break;
+    }
+    return nullptr;
+  }
+
+  // Both keyframes in the problem, distinct.
+  bool ConstraintUsable(const GlobalBaPoseConstraint& c) const {
+    const int n = static_cast<int>(poses_.size());
+    return c.from >= 0 && c.to >= 0 && c.from < n && c.to < n && c.from != c.to &&
+           keyframe_used_[static_cast<size_t>(c.from)] && keyframe_used_[static_cast<size_t>(c.to)];
+  }
+
+  // Holds each component's first keyframe fixed (and, scale-free, its
+  // distance to the component's last keyframe); returns the number of
+  // components.
+  int FixGauge(ceres::Problem* problem) {
+    std::vector<int> parent(poses_.size());
+    std::iota(parent.begin(), parent.end(), 0);
+    std::vector<int> first_observer(points_.size(), -1);
+    for (const Observation& o : observations_) {
+      if (!Counts(o)) continue;
+      int& first = first_observer[static_cast<size_t>(o.landmark)];
+      if (first < 0) {
+        first = o.keyframe;
+        continue;
+      }
+      const int a = FindRoot(&parent, first), b = FindRoot(&parent, o.keyframe);
+      if (a != b) parent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);  // the root is the first keyframe
+    }
+    for (const GlobalBaPoseConstraint& c : constraints_) {
+      if (!ConstraintUsable(c)) continue;
+      const int a = FindRoot(&parent, c.from), b = FindRoot(&parent, c.to);
+      if (a != b) parent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
+    }
+    std::map<int, int> last_of_component;
+    int components = 0;
+    for (size_t k = 0; k < poses_.size(); ++k) {
+      if (!keyframe_used_[k]) continue;
+      const int root = FindRoot(&parent, static_cast<int>(k));
+      if (root == static_cast<int>(k)) {
+        problem->SetParameterBlockConstant(poses_[k].data());
+        ++components;
+      }
+      last_of_component[root] = static_cast<int>(k);
+    }
+    if (scale_free_) {
+      for (const auto& [root, last] : last_of_component) {
+        if (last == root) continue;
+        const Eigen::Vector3d origin(poses_[static_cast<size_t>(root)][0], poses_[static_cast<size_t>(root)][1],
+                                     poses_[static_cast<size_t>(root)][2]);
+        const Eigen::Vector3d end(poses_[static_cast<size_t>(last)][0], poses_[static_cast<size_t>(last)][1],
+                                  poses_[static_cast<size_t>(last)][2]);
+        const double distance = (end - origin).norm();
+        if (!(distance > 1e-9)) continue;
+        problem->AddResidualBlock(NewDistanceAnchorCost(origin, distance, kScaleAnchorRelativeSigma * distance),
+                                  nullptr, poses_[static_cast<size_t>(last)].data());
+      }
+    }
+    return components;
+  }
+
+  const GlobalBaOptions& options_;
+  const std::vector<GlobalBaPoseConstraint>& constraints_;
+  const bool scale_free_;
+  const std::vector<Rigid3d> cam_from_rig_;
+  const double sqrt_information_;
+  std::vector<std::array<double, kPoseParamSize>> poses_;
+  std::vector<std::array<double, 3>> points_;
+  std::vector<int64_t> landmark_ids_;
+  std::vector<Observation> observations_;
+  std::vector<bool> landmark_used_, keyframe_used_;
+};
+
+}  // namespace
+
+void GlobalBaOptions::Check() const {
+  CheckAtLeast("/refine/max_iterations", max_iterations, 1);
+  CheckAtLeast("/refine/outlier_rounds", outlier_rounds, 0);
+  CheckPositive("/refine/loss_scale", loss_scale);
+  CheckPositive("/refine/reprojection_sigma_px", reprojection_sigma_px);
+  CheckPositive("/refine/virtual_focal_px", virtual_focal_px);
+  CheckPositive("/refine/outlier_threshold_px", outlier_threshold_px);
+  CheckAtLeast("/refine/min_observations", min_observations, 2);
+  CheckPositive("/refine/function_tolerance", function_tolerance);
+}
+
+GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, bool scale_free,
+                                         const GlobalBaOptions& options,
+                                         const std::vector<GlobalBaPoseConstraint>& constraints) {
+  for (const GlobalBaPoseConstraint& c : constraints) {
+    MCVO_CHECK_MSG(c.rotation_sigma_rad > 0.0 && c.translation_sigma_m > 0.0 && c.loss_scale > 0.0,
+                   "pose constraint sigmas and loss scale must be > 0");
+  }
+  const auto start = std::chrono::steady_clock::now();
+  GlobalBaResult result;
+  result.map = map;
+  result.refined.assign(map.keyframes.size(), false);
+
+  GlobalProblem problem(rig, map, scale_free, options, constraints);
+  if (!problem.SelectActive()) {
+    result.message = "no landmark is observed twice";
+    return result;
+  }
+  int count = 0;
+  result.rms_error_px_before = problem.RmsError(&count);
+  for (int round = 0; round <= options.outlier_rounds; ++round) {
+    const ceres::Solver::Summary summary = problem.Solve(&result.components);
+    if (round == 0) result.initial_cost = summary.initial_cost;
+    result.final_cost = summary.final_cost;
+    result.iterations += static_cast<int>(summary.iterations.size()) - 1;
+    result.message = summary.message;
+    ++result.solves;
+    if (round == options.outlier_rounds) break;
+    const int removed = problem.RemoveOutliers();
+    if (removed == 0) break;
+    result.observations_removed += removed;
+    if (!problem.SelectActive()) break;
+  }
+  result.ran = true;
+  result.rms_error_px_after = problem.RmsError(&result.observations_used);
+  problem.Write(map, &result);
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace mcvo

@@ -1,0 +1,248 @@
+// The global rig bundle adjustment (refine/global_ba.h) on a known scene: the
+// KITTI-360 3-camera rig (no overlap between its cameras) driving a turning
+// route past landmarks; observations are the true projections plus pixel
+// noise, the start is the truth with drifted poses, a wrong scale and
+// displaced landmarks.
+#include "mcvo/refine/global_ba.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "initializer/synthetic_rig_tracks.h"
+#include "mcvo/util/error.h"
+
+namespace mcvo {
+namespace {
+
+using testing::LoadPresetRig;
+
+struct Scene {
+  Rig rig;
+  std::vector<Rigid3d> truth;                   // world_from_rig per keyframe
+  std::map<int64_t, Eigen::Vector3d> points;   // id -> true position
+  SparseMap map;                               // observations (noisy pixels), poses and points to refine
+};
+
+// `keyframes` keyframes 1.5 m apart, turning 2 deg per keyframe (80 deg
+// over 40); every landmark within 60 m seen by a camera within 70 deg of its
+// axis.
+Scene MakeScene(const std::string& rig_name, double pixel_noise, double start_scale, unsigned seed,
+                int keyframes = 24) {
+  Scene scene;
+  scene.rig = LoadPresetRig(rig_name);
+  scene.truth = testing::TurningTrajectory(keyframes, 1.5, 2.0);
+  testing::LandmarkOptions landmark_options;
+  landmark_options.per_metre = 12.0;
+  const std::vector<Eigen::Vector3d> points = testing::LandmarksAroundPath(scene.truth, landmark_options);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, pixel_noise), wobble(0.0, 1.0);
+  for (size_t p = 0; p < points.size(); ++p) scene.points[static_cast<int64_t>(p) + 1] = points[p];
+  // The start: positions scaled about the first keyframe and drifting, a
+  // small rotation error growing along the route.
+  const Eigen::Vector3d origin = scene.truth.front().translation;
+  for (size_t k = 0; k < scene.truth.size(); ++k) {
+    MapKeyframe kf;
+    kf.frame_index = static_cast<int>(3 * k);
+    kf.t_ns = static_cast<int64_t>(k) * 300000000;
+    const Rigid3d& truth = scene.truth[k];
+    const Eigen::Quaterniond drift(Eigen::AngleAxisd(0.0005 * k * wobble(rng), Eigen::Vector3d::UnitZ()));
+    kf.world_from_rig = Rigid3d(drift * truth.rotation,
+                                origin + start_scale * (truth.translation - origin) +
+                                    0.05 * Eigen::Vector3d(wobble(rng), wobble(rng), wobble(rng)));
+    if (k == 0) kf.world_from_rig = truth;
+    for (int c = 0; c < scene.rig.NumCameras(); ++c) {
+      const Camera& camera = scene.rig.cameras[static_cast<size_t>(c)];
+      const Rigid3d cam_from_world = camera.cam_from_rig * truth.Inverse();
+      for (const auto& [id, point] : scene.points) {
+        const Eigen::Vector3d in_cam = cam_from_world * point;
+        if (in_cam.norm() > 60.0 || in_cam.z() < in_cam.norm() * std::cos(70.0 * M_PI / 180.0)) continue;
+        const std::optional<Eigen::Vector2d> pixel = camera.Project(in_cam);
+        if (!pixel) continue;
+        MapObservation ob;
+        ob.camera = c;
+        ob.landmark_id = id;
+        ob.pixel = *pixel + Eigen::Vector2d(noise(rng), noise(rng));
+        if (ob.pixel.x() < 0 || ob.pixel.y() < 0 || ob.pixel.x() > camera.width - 1 ||
+            ob.pixel.y() > camera.height - 1)
+          continue;
+        kf.observations.push_back(ob);
+      }
+    }
+    scene.map.keyframes.push_back(kf);
+  }
+  for (const auto& [id, point] : scene.points) {
+    scene.map.landmarks.push_back(
+        {id, origin + start_scale * (point - origin) + 0.2 * Eigen::Vector3d(wobble(rng), wobble(rng), wobble(rng))});
+  }
+  return scene;
+}
+
+double MaxPositionError(const SparseMap& map, const std::vector<Rigid3d>& truth) {
+  double worst = 0.0;
+  for (size_t k = 0; k < truth.size(); ++k) {
+    worst = std::max(worst, (map.keyframes[k].world_from_rig.translation - truth[k].translation).norm());
+  }
+  return worst;
+}
+
+// Length of the route from the first to the last keyframe, estimate / truth.
+double RouteScale(const SparseMap& map, const std::vector<Rigid3d>& truth) {
+  return (map.keyframes.back().world_from_rig.translation - map.keyframes.front().world_from_rig.translation)
+             .norm() /
+         (truth.back().translation - truth.front().translation).norm();
+}
+
+TEST(GlobalBaTest, NonOverlappingRigRecoversPosesAndTheScaleAlongTheRoute) {
+  const Scene scene = MakeScene("kitti360_3cam", 0.5, 1.05, 1, 40);
+  ASSERT_GT(scene.map.keyframes.front().observations.size(), 100u);
+  EXPECT_NEAR(RouteScale(scene.map, scene.truth), 1.05, 0.01);
+  EXPECT_GT(MaxPositionError(scene.map, scene.truth), 2.0);
+
+  const GlobalBaResult result = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  ASSERT_TRUE(result.ran) << result.message;
+  EXPECT_EQ(result.keyframes_refined, 40);
+  EXPECT_EQ(result.components, 1);
+  EXPECT_EQ(result.observations_removed, 0);
+  EXPECT_LT(result.final_cost, result.initial_cost);
+  // 0.5 px noise at the cameras' ~550 px focal: about 0.6 px at the 460 px
+  // virtual focal in each of two axes.
+  EXPECT_LT(result.rms_error_px_after, 0.8);
+  EXPECT_GT(result.rms_error_px_before, 5.0);
+  // The first keyframe is the gauge: exactly where it was.
+  EXPECT_EQ(result.map.keyframes.front().world_from_rig.translation, scene.truth.front().translation);
+  // The 5 % scale error is gone along the whole route, and every pose is
+  // within centimetres of the truth (60 m of route).
+  EXPECT_NEAR(RouteScale(result.map, scene.truth), 1.0, 0.002);
+  EXPECT_LT(MaxPositionError(result.map, scene.truth), 0.05);
+  // Landmarks: errors relative to their distance from the route (a far
+  // point seen over a short baseline is uncertain along its ray).
+  std::vector<double> relative;
+  for (const MapLandmark& landmark : result.map.landmarks) {
+    double nearest = 1e9;
+    for (const Rigid3d& pose : scene.truth) nearest = std::min(nearest, (pose.translation - landmark.position_world).norm());
+    relative.push_back((landmark.position_world - scene.points.at(landmark.id)).norm() / nearest);
+  }
+  std::sort(relative.begin(), relative.end());
+  const double median = relative[relative.size() / 2], p90 = relative[relative.size() * 9 / 10];
+  std::printf("%zu landmarks: relative error median %.4f, p90 %.4f; route scale %.5f, worst pose error %.3f m\n",
+              relative.size(), median, p90, RouteScale(result.map, scene.truth),
+              MaxPositionError(result.map, scene.truth));
+  EXPECT_LT(median, 0.005);
+  EXPECT_LT(p90, 0.03);
+}
+
+TEST(GlobalBaTest, OutliersAreRemovedAndDoNotMoveTheSolution) {
+  Scene scene = MakeScene("kitti360", 0.3, 1.0, 2);
+  // Every 25th observation is moved by 30-60 px.
+  int injected = 0;
+  for (MapKeyframe& kf : scene.map.keyframes) {
+    for (size_t i = 0; i < kf.observations.size(); i += 25) {
+      kf.observations[i].pixel += Eigen::Vector2d(30.0 + (i % 30), -20.0);
+      ++injected;
+    }
+  }
+  const GlobalBaResult result = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  ASSERT_TRUE(result.ran);
+  EXPECT_GE(result.observations_removed, injected * 9 / 10);
+  EXPECT_LE(result.observations_removed, injected + injected / 5);
+  EXPECT_LT(result.rms_error_px_after, 0.6);
+  EXPECT_LT(MaxPositionError(result.map, scene.truth), 0.1);
+  // Removed observations are gone from the map.
+  size_t kept = 0, before = 0;
+  for (size_t k = 0; k < scene.map.keyframes.size(); ++k) {
+    before += scene.map.keyframes[k].observations.size();
+    kept += result.map.keyframes[k].observations.size();
+  }
+  EXPECT_EQ(before - kept, static_cast<size_t>(result.observations_removed));
+}
+
+TEST(GlobalBaTest, ScaleFreeProblemKeepsTheDistanceFromFirstToLastKeyframe) {
+  // One camera: the map's unit is arbitrary (here 1.05 of the truth) and
+  // must stay so; the shape is still refined.
+  const Scene scene = MakeScene("kitti360", 0.3, 1.05, 3);
+  Rig mono;
+  mono.cameras.push_back(scene.rig.cameras[0]);
+  SparseMap map = scene.map;
+  for (MapKeyframe& kf : map.keyframes) {
+    std::vector<MapObservation> kept;
+    for (const MapObservation& ob : kf.observations) {
+      if (ob.camera == 0) kept.push_back(ob);
+    }
+    kf.observations = kept;
+  }
+  const double distance_before =
+      (map.keyframes.back().world_from_rig.translation - map.keyframes.front().world_from_rig.translation).norm();
+  const GlobalBaResult result = RunGlobalBundleAdjustment(mono, map, true, GlobalBaOptions());
+  ASSERT_TRUE(result.ran);
+  const double distance_after =
+      (result.map.keyframes.back().world_from_rig.translation - result.map.keyframes.front().world_from_rig.translation)
+          .norm();
+  EXPECT_NEAR(distance_after / distance_before, 1.0, 1e-3);
+  EXPECT_LT(result.rms_error_px_after, 0.6);
+}
+
+TEST(GlobalBaTest, DisconnectedPartsAreEachHeldByTheirFirstKeyframe) {
+  // Two halves of the route with disjoint landmark ids: two components.
+  Scene scene = MakeScene("kitti360", 0.3, 1.0, 4);
+  for (size_t k = 12; k < scene.map.keyframes.size(); ++k) {
+    for (MapObservation& ob : scene.map.keyframes[k].observations) ob.landmark_id += 1000000;
+  }
+  const std::vector<MapLandmark> first_half = scene.map.landmarks;
+  for (MapLandmark landmark : first_half) {
+    landmark.id += 1000000;
+    scene.map.landmarks.push_back(landmark);
+  }
+  const GlobalBaResult result = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  ASSERT_TRUE(result.ran);
+  EXPECT_EQ(result.components, 2);
+  EXPECT_EQ(result.map.keyframes[12].world_from_rig.translation, scene.map.keyframes[12].world_from_rig.translation);
+  EXPECT_EQ(result.map.keyframes[0].world_from_rig.translation, scene.map.keyframes[0].world_from_rig.translation);
+}
+
+TEST(GlobalBaTest, DeterministicBitForBit) {
+  const Scene scene = MakeScene("kitti360_3cam", 0.5, 1.03, 5);
+  const GlobalBaResult a = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  const GlobalBaResult b = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  ASSERT_EQ(a.map.keyframes.size(), b.map.keyframes.size());
+  for (size_t k = 0; k < a.map.keyframes.size(); ++k) {
+    EXPECT_EQ(a.map.keyframes[k].world_from_rig.translation, b.map.keyframes[k].world_from_rig.translation);
+    EXPECT_EQ(a.map.keyframes[k].world_from_rig.rotation.coeffs(), b.map.keyframes[k].world_from_rig.rotation.coeffs());
+  }
+  ASSERT_EQ(a.map.landmarks.size(), b.map.landmarks.size());
+  for (size_t i = 0; i < a.map.landmarks.size(); ++i) {
+    EXPECT_EQ(a.map.landmarks[i].position_world, b.map.landmarks[i].position_world);
+  }
+  EXPECT_EQ(a.final_cost, b.final_cost);
+}
+
+TEST(GlobalBaTest, NothingSeenTwiceIsNotRunAndSaysWhy) {
+  Scene scene = MakeScene("kitti360", 0.3, 1.0, 6);
+  int64_t next = 5000000;
+  for (MapKeyframe& kf : scene.map.keyframes) {
+    for (MapObservation& ob : kf.observations) ob.landmark_id = next++;  // every observation its own landmark
+  }
+  const GlobalBaResult result = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  EXPECT_FALSE(result.ran);
+  EXPECT_NE(result.message.find("observed twice"), std::string::npos);
+  EXPECT_EQ(result.map.keyframes.size(), scene.map.keyframes.size());
+}
+
+TEST(GlobalBaOptionsTest, CheckNamesTheField) {
+  GlobalBaOptions options;
+  options.min_observations = 1;
+  try {
+    options.Check();
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/refine/min_observations"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace mcvo
