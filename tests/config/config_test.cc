@@ -117,7 +117,7 @@ TEST(Config, UnknownKeysAreRejectedAtAnyDepth) {
       "forward_backward_check, forward_backward_threshold_px)");
   EXPECT_EQ(ErrorOf(R"({"frontnd": {}})"),
             "c.json: /frontnd: unknown key (valid keys: dataset, frontend, initializer, backend, loop, "
-            "output, colmap, runtime, eval)");
+            "refine, output, colmap, runtime, eval)");
   EXPECT_NE(ErrorOf(R"({"backend": {"window_size": 10, "windowsize": 10}})")
                 .find("c.json: /backend/windowsize: unknown key"),
             std::string::npos);
