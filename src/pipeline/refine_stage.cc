@@ -2,6 +2,7 @@
 #include "refine_stage.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <vector>
 
@@ -41,13 +42,40 @@ std::vector<double> IntervalStretch(const std::vector<int>& segment, const std::
   return stretch;
 }
 
+// The accepted loops of `loops` between keyframes of `map`.
+std::vector<GlobalBaPoseConstraint> LoopConstraints(const LoopOutcome* loops, const PoseGraphOptions& pose_graph,
+                                                    const SparseMap& map) {
+  std::vector<GlobalBaPoseConstraint> constraints;
+  if (loops == nullptr || !loops->applied) return constraints;
+  std::map<int, int> keyframe_of_frame;
+  for (size_t k = 0; k < map.keyframes.size(); ++k) {
+    keyframe_of_frame[map.keyframes[k].frame_index] = static_cast<int>(k);
+  }
+  for (const LoopAttempt& attempt : loops->attempts) {
+    if (!attempt.accepted) continue;
+    const auto from = keyframe_of_frame.find(attempt.candidate_frame);
+    const auto to = keyframe_of_frame.find(attempt.query_frame);
+    if (from == keyframe_of_frame.end() || to == keyframe_of_frame.end()) continue;
+    GlobalBaPoseConstraint c;
+    c.from = from->second;
+    c.to = to->second;
+    c.from_T_to = attempt.candidate_from_query;
+    c.rotation_sigma_rad = pose_graph.loop_rotation_sigma_deg * M_PI / 180.0;
+    c.translation_sigma_m = pose_graph.loop_translation_sigma_m;
+    c.loss_scale = pose_graph.loop_loss_scale;
+    constraints.push_back(c);
+  }
+  return constraints;
+}
+
 }  // namespace
 
-RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, bool scale_free, SparseMap* map,
+RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, const LoopOutcome* loops,
+                             const PoseGraphOptions& pose_graph, bool scale_free, SparseMap* map,
                              OdometryOutput* odometry) {
   RefineOutcome outcome;
   if (!options.enabled || map->keyframes.empty()) return outcome;
-  outcome.ba = RunGlobalBundleAdjustment(rig, *map, scale_free, options);
+  outcome.ba = RunGlobalBundleAdjustment(rig, *map, scale_free, options, LoopConstraints(loops, pose_graph, *map));
   const GlobalBaResult& ba = outcome.ba;
   if (!ba.ran) {
     MCVO_LOG(kInfo, "run: global bundle adjustment not run: ", ba.message);
@@ -103,6 +131,7 @@ RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, boo
   *map = ba.map;
   MCVO_LOG(kInfo, "run: global bundle adjustment: ", ba.keyframes_refined, " keyframes, ", ba.landmarks_refined,
            " landmarks, ", ba.observations_used, " observations (", ba.observations_removed, " removed), ",
+           ba.constraints_used, " loop constraint(s), ",
            ba.solves, " solve(s), ", ba.iterations, " iterations, rms error ", FormatFixed(ba.rms_error_px_before, 3),
            " -> ", FormatFixed(ba.rms_error_px_after, 3), " px, ", FormatFixed(ba.seconds, 2), " s");
   return outcome;

@@ -26,7 +26,10 @@ struct RefineOutcome {
 // or before it, its offset scaled by how much the refined keyframe interval
 // around it stretched (the refined scale applies between keyframes too);
 // refined landmarks take their new positions.
-RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, bool scale_free, SparseMap* map,
+// Loops the pose graph accepted (loops: may be null) enter as relative pose
+// constraints with the pose graph's loop sigmas.
+RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, const LoopOutcome* loops,
+                             const PoseGraphOptions& pose_graph, bool scale_free, SparseMap* map,
                              OdometryOutput* odometry);
 
 }  // namespace mcvo::pipeline_internal

@@ -250,8 +250,8 @@ RunSummary RunPipeline(const RunRequest& request) {
   SparseMap map = pipeline_internal::BuildSparseMap(posed, odometry.keyframes, odometry.landmarks, options.backend,
                                                     &map_observations_dropped);
   // Global refinement: one rig bundle adjustment over the whole map.
-  const pipeline_internal::RefineOutcome refine =
-      pipeline_internal::RefineGlobally(posed.rig, options.refine, summary.scale_arbitrary, &map, &odometry);
+  const pipeline_internal::RefineOutcome refine = pipeline_internal::RefineGlobally(
+      posed.rig, options.refine, &loops, options.loop.pose_graph, summary.scale_arbitrary, &map, &odometry);
   summary.seconds = SecondsSince(run_start);
   summary.frames_per_second = summary.seconds > 0 ? summary.frames / summary.seconds : 0.0;
   summary.posed_frames = static_cast<int>(odometry.poses.size());

@@ -285,6 +285,7 @@ Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Ev
   }
   json["keyframes"] = ba.keyframes_refined;
   json["components"] = ba.components;
+  json["loop_constraints"] = ba.constraints_used;
   json["landmarks"] = ba.landmarks_refined;
   json["observations"] = ba.observations_used;
   json["observations_removed"] = ba.observations_removed;

@@ -135,7 +135,7 @@ class GlobalProblem {
   bool Counts(const Observation& o) const { return o.active && landmark_used_[static_cast<size_t>(o.landmark)]; }
 
   // One Ceres solve over the active observations.
-  ceres::Solver::Summary Solve(int* components) {
+  ceres::Solver::Summary Solve(int* components, int* constraints_used) {
     ceres::Problem::Options problem_options;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -152,8 +152,10 @@ class GlobalProblem {
           loss.get(), poses_[static_cast<size_t>(o.keyframe)].data(), points_[static_cast<size_t>(o.landmark)].data());
     }
     std::vector<std::unique_ptr<ceres::LossFunction>> constraint_losses;
+    *constraints_used = 0;
     for (const GlobalBaPoseConstraint& c : constraints_) {
       if (!ConstraintUsable(c)) continue;
+      ++*constraints_used;
       constraint_losses.push_back(std::make_unique<ceres::CauchyLoss>(c.loss_scale));
       problem.AddResidualBlock(
           new ceres::AutoDiffCostFunction<RelativePoseCost, 6, kPoseParamSize, kPoseParamSize>(new RelativePoseCost(c)),
@@ -379,7 +381,7 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
   int count = 0;
   result.rms_error_px_before = problem.RmsError(&count);
   for (int round = 0; round <= options.outlier_rounds; ++round) {
-    const ceres::Solver::Summary summary = problem.Solve(&result.components);
+    const ceres::Solver::Summary summary = problem.Solve(&result.components, &result.constraints_used);
     if (round == 0) result.initial_cost = summary.initial_cost;
     result.final_cost = summary.final_cost;
     result.iterations += static_cast<int>(summary.iterations.size()) - 1;

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <set>
 #include <random>
 #include <vector>
 
@@ -203,6 +204,45 @@ TEST(GlobalBaTest, DisconnectedPartsAreEachHeldByTheirFirstKeyframe) {
   EXPECT_EQ(result.components, 2);
   EXPECT_EQ(result.map.keyframes[12].world_from_rig.translation, scene.map.keyframes[12].world_from_rig.translation);
   EXPECT_EQ(result.map.keyframes[0].world_from_rig.translation, scene.map.keyframes[0].world_from_rig.translation);
+}
+
+TEST(GlobalBaTest, ALoopConstraintJoinsAndPlacesADisconnectedPart) {
+  // The two halves share no landmark; the second half starts 2 m and 3 deg
+  // off. One relative pose between keyframes 11 and 12 (the truth, as a
+  // verified loop would give) joins them: one gauge component, and the
+  // second half lands where it belongs.
+  Scene scene = MakeScene("kitti360", 0.3, 1.0, 7);
+  const Rigid3d offset(Eigen::Quaterniond(Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ())),
+                       Eigen::Vector3d(2.0, -1.0, 0.3));
+  std::set<int64_t> second_half;
+  for (size_t k = 12; k < scene.map.keyframes.size(); ++k) {
+    MapKeyframe& kf = scene.map.keyframes[k];
+    kf.world_from_rig = offset * scene.truth[k];
+    for (MapObservation& ob : kf.observations) {
+      ob.landmark_id += 1000000;
+      second_half.insert(ob.landmark_id);
+    }
+  }
+  const std::vector<MapLandmark> first_half = scene.map.landmarks;
+  for (const MapLandmark& landmark : first_half) {
+    if (second_half.count(landmark.id + 1000000) == 0) continue;
+    scene.map.landmarks.push_back({landmark.id + 1000000, offset * scene.points.at(landmark.id)});
+  }
+  GlobalBaPoseConstraint loop;
+  loop.from = 11;
+  loop.to = 12;
+  loop.from_T_to = scene.truth[11].Inverse() * scene.truth[12];
+  loop.rotation_sigma_rad = 0.001;
+  loop.translation_sigma_m = 0.01;
+  const GlobalBaResult without = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  const GlobalBaResult with = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions(), {loop});
+  ASSERT_TRUE(without.ran && with.ran);
+  EXPECT_EQ(without.components, 2);
+  EXPECT_EQ(without.constraints_used, 0);
+  EXPECT_EQ(with.components, 1);
+  EXPECT_EQ(with.constraints_used, 1);
+  EXPECT_GT(MaxPositionError(without.map, scene.truth), 1.5);
+  EXPECT_LT(MaxPositionError(with.map, scene.truth), 0.1);
 }
 
 TEST(GlobalBaTest, DeterministicBitForBit) {

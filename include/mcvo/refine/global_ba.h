@@ -87,6 +87,7 @@ struct GlobalBaResult {
   std::vector<bool> refined;  // per keyframe: it had a pose block in the last solve
   int keyframes_refined = 0;
   int components = 0;            // gauge components (one fixed keyframe each)
+  int constraints_used = 0;      // pose constraints in the last solve
   int landmarks_refined = 0;     // in the last solve
   int observations_used = 0;     // in the last solve
   int observations_removed = 0;  // as outliers or behind the camera, over all rounds
