@@ -205,6 +205,7 @@ void Visit(V& v, LoopOptions* o) {
 template <typename V>
 void Visit(V& v, GlobalBaOptions* o) {
   v.Field("enabled", &o->enabled);
+  v.Field("monocular", &o->monocular);
   v.Field("max_iterations", &o->max_iterations);
   v.Field("outlier_rounds", &o->outlier_rounds);
   v.Enum("loss", &o->loss, kLossTypeNames);

@@ -75,6 +75,11 @@ RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, con
                              OdometryOutput* odometry) {
   RefineOutcome outcome;
   if (!options.enabled || map->keyframes.empty()) return outcome;
+  if (scale_free && !options.monocular) {
+    outcome.ba.message = "the scale is arbitrary (one camera) and refine.monocular is off";
+    MCVO_LOG(kInfo, "run: global bundle adjustment not run: ", outcome.ba.message);
+    return outcome;
+  }
   outcome.ba = RunGlobalBundleAdjustment(rig, *map, scale_free, options, LoopConstraints(loops, pose_graph, *map));
   const GlobalBaResult& ba = outcome.ba;
   if (!ba.ran) {
