@@ -202,8 +202,9 @@ std::string GlobalBaSummary(const RunOutputsInput& in) {
   }
   const GlobalBaResult& ba = in.refine->ba;
   return StrCat(ba.keyframes_refined, " keyframes, ", ba.landmarks_refined, " landmarks, ", ba.observations_used,
-                " observations (", ba.observations_removed, " removed as outliers); rms error ",
-                FormatFixed(ba.rms_error_px_before, 3), " -> ", FormatFixed(ba.rms_error_px_after, 3), " px");
+                " observations (", ba.observations_removed, " removed as outliers), ", ba.constraints_used,
+                " loop constraint(s); rms error ", FormatFixed(ba.rms_error_px_before, 3), " px before, ",
+                FormatFixed(ba.rms_error_px_after, 3), " px after");
 }
 
 void WriteReport(const RunOutputsInput& in, const RunSummary& summary, const Evaluations& evals,
