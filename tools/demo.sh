@@ -11,7 +11,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 MCVO=${1:-build/mcvo}
 OUT=out/demo
-FRAMES=${MCVO_DEMO_FRAMES:-150}
+FRAMES=${MCVO_DEMO_FRAMES:-130}
 mkdir -p "$OUT"
 
 echo "== mcvo synth --preset kitti360 ($FRAMES frames at half resolution, urban scene)"
