@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <utility>
 
 #include <opencv2/imgproc.hpp>
@@ -260,15 +261,13 @@ void CameraTracker::Impl::RejectByRansac(std::vector<int>* kept, std::vector<cv:
 
 namespace {
 
-// Detections [begin, end) of `all`, as Detections of their own.
-Detections SliceDetections(const Detections& all, size_t begin, size_t end) {
+// The detections of `all` at `rows`, pixels and scores only (what the
+// selection reads).
+Detections DetectionRows(const Detections& all, const std::vector<size_t>& rows) {
   Detections out;
-  out.pixels.assign(all.pixels.begin() + static_cast<std::ptrdiff_t>(begin),
-                    all.pixels.begin() + static_cast<std::ptrdiff_t>(end));
-  out.scores.assign(all.scores.begin() + static_cast<std::ptrdiff_t>(begin),
-                    all.scores.begin() + static_cast<std::ptrdiff_t>(end));
-  if (!all.descriptors.empty() && end > begin) {
-    out.descriptors = all.descriptors.rowRange(static_cast<int>(begin), static_cast<int>(end)).clone();
+  for (size_t k : rows) {
+    out.pixels.push_back(all.pixels[k]);
+    out.scores.push_back(all.scores[k]);
   }
   return out;
 }
@@ -295,28 +294,29 @@ void CameraTracker::Impl::AddNewFeatures(const cv::Mat& image, CameraFrameResult
   selection.mask = mask;
   selection.max_features = max_features;
   selection.min_distance_px = options.min_distance_px;
-  std::vector<int> chosen;
-  const Detections first = SliceDetections(detections, 0, top);
+  std::vector<size_t> top_rows(top);
+  std::iota(top_rows.begin(), top_rows.end(), size_t{0});
+  const Detections first = DetectionRows(detections, top_rows);
   selection.candidates = &first;
-  for (int index : SelectFeatures(selection, options.selection)) chosen.push_back(index);
+  std::vector<int> chosen = SelectFeatures(selection, options.selection);
   if (static_cast<int>(chosen.size()) < wanted && top < detections.size()) {
     for (int index : chosen) selection.tracked.push_back(detections.pixels[static_cast<size_t>(index)]);
     // Only extras in grid cells that hold no feature yet (coverage holes).
     const internal::CandidateGrid grid(camera.width, camera.height);
+    const auto cell_of = [&grid](const Eigen::Vector2f& p) {
+      return static_cast<size_t>(grid.Cell(grid.Col(p.x()), grid.Row(p.y())));
+    };
     std::vector<bool> occupied(static_cast<size_t>(grid.NumCells()), false);
-    for (const Eigen::Vector2f& p : selection.tracked) occupied[static_cast<size_t>(grid.Cell(grid.Col(p.x()), grid.Row(p.y())))] = true;
+    for (const Eigen::Vector2f& p : selection.tracked) occupied[cell_of(p)] = true;
     std::vector<size_t> hole_rows;
     for (size_t k = top; k < detections.size(); ++k) {
-      const Eigen::Vector2f& p = detections.pixels[k];
-      if (!occupied[static_cast<size_t>(grid.Cell(grid.Col(p.x()), grid.Row(p.y())))]) hole_rows.push_back(k);
+      if (!occupied[cell_of(detections.pixels[k])]) hole_rows.push_back(k);
     }
-    Detections extras;
-    for (size_t k : hole_rows) {
-      extras.pixels.push_back(detections.pixels[k]);
-      extras.scores.push_back(detections.scores[k]);
-    }
+    const Detections extras = DetectionRows(detections, hole_rows);
     selection.candidates = &extras;
-    for (int index : SelectFeatures(selection, options.selection)) chosen.push_back(static_cast<int>(hole_rows[static_cast<size_t>(index)]));
+    for (int index : SelectFeatures(selection, options.selection)) {
+      chosen.push_back(static_cast<int>(hole_rows[static_cast<size_t>(index)]));
+    }
   }
   for (int index : chosen) {
     TrackedFeature f;

@@ -169,19 +169,29 @@ TEST(ShiTomasiTest, WeakTextureBesideStrongCornersKeepsCandidatesNoiseDoesNot) {
   EXPECT_EQ(count(all, noisy), 0);
 }
 
-TEST(CapWithSpreadExtrasTest, TheTopByScoreThenSpreadExtras) {
-  // 320 x 160 (cells of 28 px): ten strong points in cell (0, 0), one weak
-  // point in each of cells 1..4 of row 0, and a second weak one in cell 1.
+// Detections on a 320 x 160 image (cells of 28 px): ten strong points in
+// cell (0, 0) (indices 0..9, scores 100..91), one weak point in each of
+// cells 1..4 of row 0 (indices 10..13, scores 1..4).
+struct PointSet {
   std::vector<Eigen::Vector2f> pixels;
   std::vector<float> scores;
+};
+PointSet StrongCornerAndWeakCells() {
+  PointSet set;
   for (int k = 0; k < 10; ++k) {
-    pixels.emplace_back(2.0f + k, 3.0f);
-    scores.push_back(100.0f - k);
+    set.pixels.emplace_back(2.0f + k, 3.0f);
+    set.scores.push_back(100.0f - k);
   }
   for (int c = 1; c <= 4; ++c) {
-    pixels.emplace_back(28.0f * c + 5.0f, 5.0f);
-    scores.push_back(1.0f * c);
+    set.pixels.emplace_back(28.0f * c + 5.0f, 5.0f);
+    set.scores.push_back(1.0f * c);
   }
+  return set;
+}
+
+TEST(CapWithSpreadExtrasTest, TheTopByScoreThenSpreadExtras) {
+  // StrongCornerAndWeakCells and a second weak point in cell 1 (index 14).
+  auto [pixels, scores] = StrongCornerAndWeakCells();
   pixels.emplace_back(40.0f, 20.0f);
   scores.push_back(0.5f);
   // Cap 3: the best three (0, 1, 2), then three extras by cell rank: the
@@ -199,17 +209,7 @@ TEST(SpatiallyBalancedOrderTest, EveryCellsBestBeforeAnyCellsSecond) {
   EXPECT_EQ(grid.cols(), 12);
   EXPECT_EQ(grid.rows(), 6);
   EXPECT_EQ(grid.Rect(11, 5), cv::Rect(308, 140, 12, 20));
-  // Ten strong points in cell (0, 0), one weak point in each of cells 1..4 of row 0.
-  std::vector<Eigen::Vector2f> pixels;
-  std::vector<float> scores;
-  for (int k = 0; k < 10; ++k) {
-    pixels.emplace_back(2.0f + k, 3.0f);
-    scores.push_back(100.0f - k);
-  }
-  for (int c = 1; c <= 4; ++c) {
-    pixels.emplace_back(28.0f * c + 5.0f, 5.0f);
-    scores.push_back(1.0f * c);
-  }
+  const auto [pixels, scores] = StrongCornerAndWeakCells();
   // All fit: every index, by decreasing score.
   const std::vector<int> all = internal::SpatiallyBalancedOrder(pixels, scores, 100, 320, 160);
   ASSERT_EQ(all.size(), pixels.size());
