@@ -89,9 +89,8 @@ class GlobalProblem {
     const std::vector<MapKeyframe>& keyframes = map.keyframes;
     poses_.resize(keyframes.size());
     for (size_t k = 0; k < keyframes.size(); ++k) PoseToParams(keyframes[k].world_from_rig, poses_[k].data());
-    std::map<int64_t, int> landmark_index;
     for (const MapLandmark& landmark : map.landmarks) {
-      if (!landmark_index.emplace(landmark.id, static_cast<int>(landmark_ids_.size())).second) continue;
+      if (!landmark_index_.emplace(landmark.id, static_cast<int>(landmark_ids_.size())).second) continue;
       landmark_ids_.push_back(landmark.id);
       const Eigen::Vector3d& p = landmark.position_world;
       points_.push_back({p.x(), p.y(), p.z()});
@@ -100,8 +99,8 @@ class GlobalProblem {
       for (size_t i = 0; i < keyframes[k].observations.size(); ++i) {
         const MapObservation& ob = keyframes[k].observations[i];
         if (ob.camera < 0 || ob.camera >= rig.NumCameras()) continue;
-        const auto it = landmark_index.find(ob.landmark_id);
-        if (it == landmark_index.end()) continue;
+        const auto it = landmark_index_.find(ob.landmark_id);
+        if (it == landmark_index_.end()) continue;
         const std::optional<Eigen::Vector3d> bearing = rig.cameras[static_cast<size_t>(ob.camera)].Unproject(ob.pixel);
         if (!bearing || !bearing->allFinite()) continue;
         Observation o;
@@ -251,13 +250,11 @@ class GlobalProblem {
       }
       kf.observations = std::move(kept);
     }
-    std::map<int64_t, size_t> index_of;
-    for (size_t i = 0; i < landmark_ids_.size(); ++i) index_of[landmark_ids_[i]] = i;
     std::vector<MapLandmark> landmarks;
     for (const MapLandmark& landmark : map.landmarks) {
       if (observed.count(landmark.id) == 0) continue;
       MapLandmark out = landmark;
-      const size_t i = index_of.at(landmark.id);
+      const size_t i = static_cast<size_t>(landmark_index_.at(landmark.id));
       if (landmark_used_[i]) out.position_world = Eigen::Vector3d(points_[i][0], points_[i][1], points_[i][2]);
       landmarks.push_back(out);
     }
@@ -344,6 +341,7 @@ class GlobalProblem {
   std::vector<std::array<double, kPoseParamSize>> poses_;
   std::vector<std::array<double, 3>> points_;
   std::vector<int64_t> landmark_ids_;
+  std::map<int64_t, int> landmark_index_;  // id -> index into points_ / landmark_ids_
   std::vector<Observation> observations_;
   std::vector<bool> landmark_used_, keyframe_used_;
 };
