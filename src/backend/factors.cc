@@ -608,6 +608,18 @@ class DistanceAnchorCost final : public ceres::SizedCostFunction<1, kPoseParamSi
 
 }  // namespace
 
+std::unique_ptr<ceres::LossFunction> NewRobustLoss(LossType type, double scale) {
+  switch (type) {
+    case LossType::kHuber:
+      return std::make_unique<ceres::HuberLoss>(scale);
+    case LossType::kCauchy:
+      return std::make_unique<ceres::CauchyLoss>(scale);
+    case LossType::kTrivial:
+      break;
+  }
+  return nullptr;
+}
+
 ceres::CostFunction* NewDistanceAnchorCost(const Eigen::Vector3d& origin, double distance, double sigma) {
   MCVO_CHECK_MSG(sigma > 0.0 && distance > 0.0 && origin.allFinite(), "distance anchor: distance ", distance,
                  ", sigma ", sigma);

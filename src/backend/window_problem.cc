@@ -37,15 +37,7 @@ WindowProblem::WindowProblem(const Rig& rig, const BackendOptions& options)
 }
 
 std::unique_ptr<ceres::LossFunction> WindowProblem::MakeLoss() const {
-  switch (options_.loss) {
-    case LossType::kHuber:
-      return std::make_unique<ceres::HuberLoss>(options_.loss_scale);
-    case LossType::kCauchy:
-      return std::make_unique<ceres::CauchyLoss>(options_.loss_scale);
-    case LossType::kTrivial:
-      return nullptr;
-  }
-  return nullptr;
+  return NewRobustLoss(options_.loss, options_.loss_scale);
 }
 
 // Residual blocks of one landmark's observations (the anchor excluded).

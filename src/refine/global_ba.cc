@@ -140,7 +140,7 @@ class GlobalProblem {
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
     std::unique_ptr<ceres::Manifold> manifold(NewPoseManifold());
-    std::unique_ptr<ceres::LossFunction> loss = MakeLoss();
+    std::unique_ptr<ceres::LossFunction> loss = NewRobustLoss(options_.loss, options_.loss_scale);
     for (size_t k = 0; k < poses_.size(); ++k) {
       if (keyframe_used_[k]) problem.AddParameterBlock(poses_[k].data(), kPoseParamSize, manifold.get());
     }
@@ -264,19 +264,6 @@ class GlobalProblem {
   }
 
  private:
-  std::unique_ptr<ceres::LossFunction> MakeLoss() const {
-    const double scale = options_.loss_scale;  // residuals are in units of sigma
-    switch (options_.loss) {
-      case LossType::kHuber:
-        return std::make_unique<ceres::HuberLoss>(scale);
-      case LossType::kCauchy:
-        return std::make_unique<ceres::CauchyLoss>(scale);
-      case LossType::kTrivial:
-        break;
-    }
-    return nullptr;
-  }
-
   // Both keyframes in the problem, distinct.
   bool ConstraintUsable(const GlobalBaPoseConstraint& c) const {
     const int n = static_cast<int>(poses_.size());

@@ -32,9 +32,12 @@
 // (refined) or as constants.
 #pragma once
 
+#include <memory>
+
 #include <ceres/ceres.h>
 #include <Eigen/Core>
 
+#include "mcvo/backend/backend_options.h"
 #include "mcvo/geometry/rigid3d.h"
 
 namespace mcvo {
@@ -133,6 +136,11 @@ ceres::CostFunction* NewWorldPointFactor(const Eigen::Vector3d& observed_bearing
                                          double sqrt_information);
 ceres::CostFunction* NewWorldPointFactorAutoDiff(const Eigen::Vector3d& observed_bearing,
                                                  const Rigid3d& cam_from_rig, double sqrt_information);
+
+// The robust loss of a bearing residual in units of its sigma: Huber or
+// Cauchy at `scale`, or none (nullptr) for kTrivial. The window BA and the
+// global BA (refine/global_ba.h) both use it.
+std::unique_ptr<ceres::LossFunction> NewRobustLoss(LossType type, double scale);
 
 // Monocular scale gauge (estimator.h "Monocular"): one residual on a pose
 // block, (|t - origin| - distance) / sigma, where t is the block's
