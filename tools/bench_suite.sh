@@ -356,7 +356,7 @@ for r in csv.DictReader(open(tsv), delimiter="\t"):
     row = dict(sequence=r["sequence"], scene=r["scene"], rig=r["rig"], config=r["config"], seed=int(r["seed"]),
                effects=r["effects"], run=r["run"], cameras=expected_cameras(r), frames="", posed="", posed_pct=nan, segments="",
                ate_pct=nan, ate_m=nan, path_m=nan, scale_pct=nan, fps=nan, run_s=nan,
-               ate_pct_pre=nan, scale_pct_pre=nan, ba_s=nan,
+               ate_pct_pre=nan, scale_pct_pre=nan, local_pct=nan, local_pct_pre=nan, ba_s=nan,
                render_s=float(r["render_s"]) if r["render_s"] else nan, status="", warning="")
     record_path = os.path.join(runs_dir, ".batch", "runs", r["run"] + ".json")
     record = json.load(open(record_path)) if os.path.exists(record_path) else {}
@@ -377,6 +377,7 @@ for r in csv.DictReader(open(tsv), delimiter="\t"):
                    frames=res.get("frames", ""), posed=res.get("posed_frames", ""), segments=res.get("segments", ""),
                    ate_pct=num(res.get("ate_percent_of_path")), ate_m=num(res.get("ate_rmse_m")),
                    path_m=num(res.get("gt_path_length_m")), scale_pct=num(res.get("scale_error_percent")),
+                   local_pct=num(res.get("local_scale_worst_percent")),
                    fps=num(timing.get("frames_per_second")), run_s=num(timing.get("seconds_total")),
                    warning=res.get("warning", ""))
         if res.get("frames"):
@@ -387,8 +388,10 @@ for r in csv.DictReader(open(tsv), delimiter="\t"):
         if ba.get("applied") and not math.isnan(row["path_m"]) and row["path_m"] > 0:
             row["ate_pct_pre"] = 100.0 * num(ba.get("ate_rmse_m_before")) / row["path_m"]
             row["scale_pct_pre"] = num(ba.get("scale_error_percent_before"))
+            row["local_pct_pre"] = num(ba.get("local_scale_worst_percent_before"))
         elif row["status"] == "ok":
             row["ate_pct_pre"], row["scale_pct_pre"] = row["ate_pct"], row["scale_pct"]
+            row["local_pct_pre"] = row["local_pct"]
         row["ba_s"] = num(timing.get("global_ba_s_total"))
     rows.append(row)
 
@@ -409,7 +412,7 @@ def f(x, digits=3):
 
 # per sequence (run) CSV
 keys = ["sequence", "scene", "rig", "cameras", "config", "seed", "effects", "frames", "posed", "posed_pct", "segments",
-        "ate_pct", "ate_m", "path_m", "scale_pct", "ate_pct_pre", "scale_pct_pre", "fps", "run_s", "ba_s", "render_s",
+        "ate_pct", "ate_m", "path_m", "scale_pct", "ate_pct_pre", "scale_pct_pre", "local_pct", "local_pct_pre", "fps", "run_s", "ba_s", "render_s",
         "status", "warning"]
 base = e["OUT_BASE"]
 with open(base + ".csv.tmp", "w", newline="") as out:
@@ -417,6 +420,7 @@ with open(base + ".csv.tmp", "w", newline="") as out:
     w.writerow(["sequence", "scene", "rig", "cameras", "config", "seed", "effects", "frames", "frames_posed",
                 "frames_posed_percent", "segments", "ate_percent_of_path", "ate_rmse_m", "gt_path_length_m",
                 "scale_error_percent", "ate_percent_before_global_ba", "scale_error_percent_before_global_ba",
+                "local_scale_worst_percent", "local_scale_worst_percent_before_global_ba",
                 "frames_per_second", "run_seconds", "global_ba_seconds", "render_seconds", "status", "warning"])
     for row in rows:
         w.writerow([f(row[k], 4) if isinstance(row[k], float) else row[k] for k in keys])
@@ -455,10 +459,11 @@ for (rig, config), rs in groups.items():
     sm, sw = stat([r["scale_pct"] for r in rs], max)
     bam, baw = stat([r["ate_pct_pre"] for r in rs], max)
     bsm, bsw = stat([r["scale_pct_pre"] for r in rs], max)
+    lm, lw = stat([r["local_pct"] for r in rs], max)
     fm, _ = stat([r["fps"] for r in rs], min)
     target = ("ATE <= 0.5 %, scale <= 1 %" if three else "Sim3 ATE <= 0.5 %" if cams == [1] else "ATE <= 0.3 %")
     rig_lines.append(f"| {rig} | {config} | {cams_s} | {n} | {failed} | {mw(pm, pw, 1)} | {mw(am, aw)} | "
-                     f"{mw(sm, sw)} | {mw(bam, baw)} | {mw(bsm, bsw)} | {f(fm, 1) or '-'} | {target} | {posed_ok}/{n} | {ate_ok}/{n} | "
+                     f"{mw(sm, sw)} | {mw(lm, lw, 2)} | {mw(bam, baw)} | {mw(bsm, bsw)} | {f(fm, 1) or '-'} | {target} | {posed_ok}/{n} | {ate_ok}/{n} | "
                      f"{f'{scale_ok}/{n}' if three else '-'} | {all_ok}/{n} |")
     total["n"] += n
     total["posed"] += posed_ok
@@ -474,7 +479,7 @@ for r in rows:
     mark = "" if r["status"] != "ok" else ("yes" if p and a and (s is None or s) else "no")
     posed = f"{r['posed']}/{r['frames']} ({f(r['posed_pct'], 1)})" if r["frames"] != "" else ""
     seq_lines.append(f"| {r['sequence']} | {r['scene']} | {r['rig']} | {r['config']} | {r['seed']} | {r['effects']} | "
-                     f"{posed} | {r['segments']} | {f(r['ate_pct'])} | {f(r['scale_pct'])} | {f(r['ate_pct_pre'])} | "
+                     f"{posed} | {r['segments']} | {f(r['ate_pct'])} | {f(r['scale_pct'])} | {f(r['local_pct'], 2)} | {f(r['ate_pct_pre'])} | "
                      f"{f(r['scale_pct_pre'])} | {f(r['fps'], 1)} | {f(r['ba_s'], 1)} | "
                      f"{r['status']} | {mark} | {r['warning'].replace('|', '/')} |")
 
@@ -491,7 +496,22 @@ if pairs:
         f"ATE after / before the global BA over the {len(pairs)} runs with a pose: median "
         f"{statistics.median(ratios):.3f}, best {ratios[0]:.3f}, worst {ratios[-1]:.3f}; lower after in "
         f"{better} of {len(pairs)}. Its share of the run's wall time: median "
-        f"{100 * statistics.median(ba_share):.1f} %, worst {100 * max(ba_share):.1f} %." if ba_share else "", ""]
+        f"{100 * statistics.median(ba_share):.1f} %, worst {100 * max(ba_share):.1f} %." if ba_share else "", "",
+        "Local scale: the worst deviation from 1 over 50-frame windows of estimated / true distance between the "
+        "window's end poses (docs/eval.md, \"Local scale\"), per run; median and worst over the rig's runs, before "
+        "and after the global BA; \"within 1 %\": runs whose worst window is within 1 % after it.", "",
+        "| rig | config | runs | local scale worst % before: median / worst | after: median / worst | within 1 % |",
+        "|---|---|---|---|---|---|"]
+    for (rig, config), rs in groups.items():
+        ok = [r for r in rs if r["status"] == "ok" and not math.isnan(r["local_pct"])]
+        if not ok:
+            continue
+        pm_, pw_ = stat([r["local_pct_pre"] for r in ok], max)
+        am_, aw_ = stat([r["local_pct"] for r in ok], max)
+        within = sum(r["local_pct"] <= 1.0 for r in ok)
+        global_ba_lines.append(f"| {rig} | {config} | {len(ok)} | {mw(pm_, pw_, 2)} | {mw(am_, aw_, 2)} | "
+                               f"{within}/{len(rs)} |")
+    global_ba_lines.append("")
 
 run_sum = sum(r["run_s"] for r in rows if not math.isnan(r["run_s"]))
 render_sum = sum(r["render_s"] for r in {x["sequence"]: x for x in rows}.values() if not math.isnan(r["render_s"]))
@@ -524,18 +544,18 @@ lines = [
     measures, "",
     "## Per rig and config", "",
     "| rig | config | cameras | sequences | failed | frames posed % median / worst | ATE % median / worst | "
-    "scale error % median / worst | before global BA: ATE % | before global BA: scale error % | frames/s median | "
+    "scale error % median / worst | local scale worst % median / worst | before global BA: ATE % | before global BA: scale error % | frames/s median | "
     "target | posed >= 99 % | ATE target | scale target | all targets |",
-    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     *rig_lines,
-    f"| all | | | {total['n']} | | | | | | | | | {total['posed']}/{total['n']} | {total['ate']}/{total['n']} | "
+    f"| all | | | {total['n']} | | | | | | | | | | {total['posed']}/{total['n']} | {total['ate']}/{total['n']} | "
     f"{total['scale']}/{total['scale_n']} | {total['all']}/{total['n']} |", "",
     *global_ba_lines,
     "## Per sequence", "",
     "| sequence | scene | rig | config | seed | effects | frames posed (%) | segments | ATE % | scale error % | "
-    "ATE % before global BA | scale error % before global BA | frames/s | global BA s | status | targets met | "
+    "local scale worst % | ATE % before global BA | scale error % before global BA | frames/s | global BA s | status | targets met | "
     "warning |",
-    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     *seq_lines,
 ]
 with open(base + ".md.tmp", "w") as out:

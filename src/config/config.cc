@@ -252,6 +252,8 @@ void Visit(V& v, EvalOptions* o) {
   v.Field("rpe_lengths_m", &o->rpe_lengths_m);
   v.Field("rpe_length_percents", &o->rpe_length_percents);
   v.Field("rpe_length_tolerance", &o->rpe_length_tolerance);
+  v.Field("local_scale_window", &o->local_scale_window);
+  v.Field("local_scale_min_distance_m", &o->local_scale_min_distance_m);
 }
 
 template <typename V>

@@ -117,6 +117,13 @@ void EvalOptions::Check() const {
     throw UsageError(StrCat("rpe_length_tolerance: expected a fraction in (0, 1), got ",
                             FormatDouble(rpe_length_tolerance)));
   }
+  if (local_scale_window < 1) {
+    throw UsageError(StrCat("local_scale_window: expected at least 1 pose, got ", local_scale_window));
+  }
+  if (!std::isfinite(local_scale_min_distance_m) || local_scale_min_distance_m < 0.0) {
+    throw UsageError(StrCat("local_scale_min_distance_m: expected a distance >= 0, got ",
+                            FormatDouble(local_scale_min_distance_m)));
+  }
 }
 
 double PathLength(const std::vector<Eigen::Vector3d>& positions) {
@@ -266,6 +273,11 @@ EvalResult EvaluateTrajectory(const Trajectory& gt, const Trajectory& est, const
     }
   }
   if (!result.rpe.computed) result.notes.push_back("RPE skipped: " + result.rpe.skipped_reason);
+
+  std::vector<Eigen::Vector3d> est_aligned_matched(m);
+  for (size_t k = 0; k < m; ++k) est_aligned_matched[k] = est_aligned_poses[k].translation;
+  result.local_scale = ComputeLocalScale(gt_matched, est_aligned_matched, options.local_scale_window,
+                                         options.local_scale_min_distance_m);
 
   result.start_end = ComputeStartEnd(gt, est);
   return result;

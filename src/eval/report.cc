@@ -36,6 +36,8 @@ Json OptionsJson(const EvalOptions& options) {
   j["rpe_lengths_m"] = metres ? Json(options.rpe_lengths_m) : Json(nullptr);
   j["rpe_length_percents"] = metres ? Json(nullptr) : Json(options.rpe_length_percents);
   j["rpe_length_tolerance"] = options.rpe_length_tolerance;
+  j["local_scale_window"] = options.local_scale_window;
+  j["local_scale_min_distance_m"] = options.local_scale_min_distance_m;
   return j;
 }
 
@@ -91,6 +93,16 @@ Json ScaleJson(const EvalResult& result) {
     drift.push_back(l);
   }
   j["drift"] = drift;
+  const LocalScaleResult& local = result.local_scale;
+  const bool have_local = local.ratio.count > 0;
+  Json l;
+  l["window_poses"] = local.window_poses;
+  l["windows"] = local.ratio.count;
+  l["windows_skipped"] = local.windows_skipped;
+  l["ratio"] = StatsJson(local.ratio);
+  l["worst_deviation_percent"] = have_local ? Json(local.worst_deviation_percent) : Json(nullptr);
+  l["median_deviation_percent"] = have_local ? Json(local.median_deviation_percent) : Json(nullptr);
+  j["local"] = l;
   return j;
 }
 

@@ -114,6 +114,14 @@ KeyValues SummaryRows(const ReportInputs& inputs) {
     } else {
       rows.emplace_back("scale error", "not available (" + scale.unavailable_reason + ")");
     }
+    const LocalScaleResult& local = e.local_scale;
+    if (local.ratio.count > 0) {
+      rows.emplace_back(StrCat("local scale (", local.window_poses, "-pose windows)"),
+                        StrCat(Fixed(local.ratio.min, 4), " to ", Fixed(local.ratio.max, 4), ", worst ",
+                               Fixed(local.worst_deviation_percent, 2), " %, median ",
+                               Fixed(local.median_deviation_percent, 2), " % over ", local.ratio.count,
+                               " windows"));
+    }
     const StartEndResult& se = e.start_end;
     const auto start_end = [](double distance, double path, const std::optional<double>& percent) {
       std::string text = Fixed(distance, 4) + " m";

@@ -126,4 +126,31 @@ RpeResult ComputeRpe(const std::vector<Rigid3d>& gt_poses, const std::vector<Rig
   return result;
 }
 
+LocalScaleResult ComputeLocalScale(const std::vector<Eigen::Vector3d>& gt_positions,
+                                   const std::vector<Eigen::Vector3d>& est_aligned_positions, int window,
+                                   double min_distance_m) {
+  MCVO_CHECK(gt_positions.size() == est_aligned_positions.size());
+  MCVO_CHECK(window > 0);
+  LocalScaleResult result;
+  result.window_poses = window;
+  const size_t step = static_cast<size_t>(window);
+  std::vector<double> deviations;
+  for (size_t a = 0; a + step < gt_positions.size(); a += step) {
+    const size_t b = a + step;
+    const double gt_distance = (gt_positions[b] - gt_positions[a]).norm();
+    if (!(gt_distance >= min_distance_m)) {
+      ++result.windows_skipped;
+      continue;
+    }
+    const double ratio = (est_aligned_positions[b] - est_aligned_positions[a]).norm() / gt_distance;
+    result.ratios.push_back(ratio);
+    deviations.push_back(100.0 * std::abs(ratio - 1.0));
+  }
+  result.ratio = ComputeStats(result.ratios);
+  const ErrorStats deviation = ComputeStats(deviations);
+  result.worst_deviation_percent = deviation.max;
+  result.median_deviation_percent = deviation.median;
+  return result;
+}
+
 }  // namespace mcvo

@@ -273,6 +273,11 @@ Json OutputsSha256(const std::filesystem::path& dir) {
   return outputs;
 }
 
+// The worst local-scale deviation (eval.md "Local scale"), null without a window.
+Json LocalScaleWorst(const EvalResult& eval) {
+  return eval.local_scale.ratio.count > 0 ? Json(eval.local_scale.worst_deviation_percent) : Json(nullptr);
+}
+
 // run.json's result.global_ba: what the global bundle adjustment did, and
 // the accuracy of the trajectory it started from.
 Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Evaluations& evals) {
@@ -301,6 +306,7 @@ Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Ev
   if (before) {
     json["ate_rmse_m_before"] = before->ate_translation_m.rmse;
     if (!summary.scale_arbitrary) json["scale_error_percent_before"] = before->scale.scale_error_percent;
+    json["local_scale_worst_percent_before"] = LocalScaleWorst(*before);
   }
   return json;
 }
@@ -340,6 +346,10 @@ Json ResultJson(const RunOutputsInput& in, const RunSummary& summary, const Eval
       result["scale_error_percent"] = summary.scale_error_percent;
     }
     result["gt_path_length_m"] = summary.gt_path_length_m;
+    if (evals.final) {
+      result["local_scale_window_frames"] = evals.final->local_scale.window_poses;
+      result["local_scale_worst_percent"] = LocalScaleWorst(*evals.final);
+    }
   }
   result["sparse_map_keyframes"] = in.map->keyframes.size();
   result["sparse_map_landmarks"] = in.map->landmarks.size();

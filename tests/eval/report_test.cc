@@ -45,7 +45,8 @@ TEST(Report, JsonHasTheDocumentedKeys) {
   EXPECT_EQ(Keys(j["gt"]), Sorted({"name", "poses"}));
   EXPECT_EQ(j["est"]["name"], "est.tum");
   EXPECT_EQ(Keys(j["options"]), Sorted({"associate", "max_dt_s", "align", "align_num_poses", "rpe_lengths_m",
-                                        "rpe_length_percents", "rpe_length_tolerance"}));
+                                        "rpe_length_percents", "rpe_length_tolerance", "local_scale_window",
+                                        "local_scale_min_distance_m"}));
   EXPECT_EQ(Keys(j["association"]),
             Sorted({"mode", "matched", "gt_unmatched", "est_unmatched", "max_abs_dt_s"}));
   EXPECT_EQ(j["association"]["matched"], 60);
@@ -65,10 +66,15 @@ TEST(Report, JsonHasTheDocumentedKeys) {
                                                "rotation_deg", "rotation_deg_per_m"}));
   EXPECT_EQ(Keys(j["scale"]),
             Sorted({"available", "unavailable_reason", "num_poses", "sim3_scale", "est_scale_factor",
-                    "scale_error_percent", "scale_error_signed_percent", "drift"}));
+                    "scale_error_percent", "scale_error_signed_percent", "drift", "local"}));
   ASSERT_EQ(j["scale"]["drift"].size(), 5u);
   EXPECT_EQ(Keys(j["scale"]["drift"][0]),
             Sorted({"length_m", "length_percent", "count", "ratio", "ratio_sim3_normalized"}));
+  EXPECT_EQ(Keys(j["scale"]["local"]), Sorted({"window_poses", "windows", "windows_skipped", "ratio",
+                                               "worst_deviation_percent", "median_deviation_percent"}));
+  EXPECT_EQ(Keys(j["scale"]["local"]["ratio"]), stats);
+  EXPECT_EQ(j["scale"]["local"]["window_poses"], 50);
+  EXPECT_EQ(j["scale"]["local"]["windows"], 1);
   EXPECT_EQ(Keys(j["start_end"]), Sorted({"est_distance_m", "est_path_length_m", "est_percent",
                                           "gt_distance_m", "gt_path_length_m", "gt_percent"}));
   EXPECT_TRUE(j["notes"].is_array());

@@ -1,9 +1,12 @@
 // RPE and scale drift on trajectories with hand-computable errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "eval/trajectory_fixtures.h"
 #include "mcvo/eval/evaluate.h"
 #include "mcvo/eval/rpe.h"
+#include "mcvo/util/error.h"
 
 namespace mcvo {
 namespace {
@@ -144,6 +147,59 @@ TEST(Rpe, EndPoseSelection) {
   // Standing still: among equal distances the first pose.
   EXPECT_EQ(Segments({0, 0, 10, 10, 20}, 10.0), (PairList{{0, 2}, {1, 2}, {2, 4}, {3, 4}}));
   EXPECT_EQ(Segments({0, 9, 9, 13}, 10.0), (PairList{{0, 1}}));
+}
+
+TEST(LocalScale, WindowsFollowAScaleThatChangesHalfway) {
+  // 101 poses 1 m apart along +x; the estimate steps 1.02 m for the first
+  // 50 and 0.99 m after. Windows of 20 poses: [0,20], [20,40] at 1.02,
+  // [40,60] straddles (10 * 1.02 + 10 * 0.99) / 20, [60,80], [80,100] at
+  // 0.99; no aligned window of 20 poses fits after 100.
+  const Trajectory gt = MakeTrajectory(
+      101, [](int k) { return Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(k, 0, 0)); });
+  const Trajectory est = MakeTrajectory(101, [](int k) {
+    const double x = k <= 50 ? 1.02 * k : 1.02 * 50 + 0.99 * (k - 50);
+    return Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, 0, 0));
+  });
+  EvalOptions options;
+  options.align = AlignmentMode::kNone;
+  options.local_scale_window = 20;
+  const EvalResult result = EvaluateTrajectory(gt, est, options);
+  const LocalScaleResult& local = result.local_scale;
+  ASSERT_EQ(local.ratios.size(), 5u);
+  EXPECT_NEAR(local.ratios[0], 1.02, 1e-12);
+  EXPECT_NEAR(local.ratios[1], 1.02, 1e-12);
+  EXPECT_NEAR(local.ratios[2], 1.005, 1e-12);
+  EXPECT_NEAR(local.ratios[3], 0.99, 1e-12);
+  EXPECT_NEAR(local.ratios[4], 0.99, 1e-12);
+  EXPECT_NEAR(local.worst_deviation_percent, 2.0, 1e-9);
+  EXPECT_NEAR(local.median_deviation_percent, 1.0, 1e-9);
+  EXPECT_EQ(local.windows_skipped, 0u);
+}
+
+TEST(LocalScale, ShortWindowsAreSkippedAndAlignmentScaleRemoved) {
+  // Standing still for the first 40 poses, then 1 m per pose; the estimate
+  // is the truth at twice the size. With sim3 the global factor 2 is
+  // removed: every counted ratio is 1. Windows of 20 poses whose ends are
+  // under 5 m apart ([0,20], [20,40]) are skipped.
+  const Trajectory gt = MakeTrajectory(81, [](int k) {
+    return Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(std::max(0, k - 40), 0.1 * k, 0));
+  });
+  const Trajectory est = MakeTrajectory(81, [](int k) {
+    return Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(2.0 * std::max(0, k - 40), 0.2 * k, 0));
+  });
+  EvalOptions options;
+  options.align = AlignmentMode::kSim3;
+  options.local_scale_window = 20;
+  options.local_scale_min_distance_m = 5.0;
+  const EvalResult result = EvaluateTrajectory(gt, est, options);
+  const LocalScaleResult& local = result.local_scale;
+  EXPECT_EQ(local.windows_skipped, 2u);
+  ASSERT_EQ(local.ratios.size(), 2u);
+  for (double ratio : local.ratios) EXPECT_NEAR(ratio, 1.0, 1e-9);
+  EXPECT_LT(local.worst_deviation_percent, 1e-7);
+
+  options.local_scale_window = 0;
+  EXPECT_THROW(EvaluateTrajectory(gt, est, options), UsageError);
 }
 
 }  // namespace

@@ -53,6 +53,11 @@ struct EvalOptions {
   // An RPE segment of nominal length d is accepted when its travelled
   // ground-truth distance is within rpe_length_tolerance * d of d.
   double rpe_length_tolerance = 0.2;
+  // Local scale: consecutive, non-overlapping windows of this many matched
+  // poses; a window counts when its ground-truth ends are at least
+  // local_scale_min_distance_m apart (docs/eval.md, "Local scale").
+  int local_scale_window = 50;
+  double local_scale_min_distance_m = 1.0;
 
   // Throws UsageError naming the bad field.
   void Check() const;
@@ -103,6 +108,20 @@ struct ScaleResult {
   double scale_error_signed_percent = 0.0;  // 100 (1/s - 1): > 0 estimate too large
 };
 
+// How far the scale wanders along the trajectory: per window of
+// options.local_scale_window matched poses, ratio = |est_b - est_a| /
+// |gt_b - gt_a| between the window's end poses, the estimate aligned (so
+// metric for se3, the global scale removed for sim3).
+struct LocalScaleResult {
+  int window_poses = 0;
+  size_t windows_skipped = 0;  // windows whose gt ends were closer than the minimum distance
+  std::vector<double> ratios;  // one per counted window, in order
+  ErrorStats ratio;            // over `ratios`
+  // 100 max |ratio - 1| and 100 median |ratio - 1|; 0 when no window counts.
+  double worst_deviation_percent = 0.0;
+  double median_deviation_percent = 0.0;
+};
+
 struct StartEndResult {
   // Over all poses of each trajectory (not only the matched ones), in the
   // trajectory's own units (the estimate is not aligned or scaled).
@@ -132,6 +151,7 @@ struct EvalResult {
   ErrorStats ate_rotation_deg;
   RpeResult rpe;
   ScaleResult scale;
+  LocalScaleResult local_scale;
   StartEndResult start_end;
   std::vector<std::string> notes;  // conditions worth a reader's attention
 

@@ -54,4 +54,10 @@ RpeResult ComputeRpe(const std::vector<Rigid3d>& gt_poses, const std::vector<Rig
                      const std::vector<std::optional<double>>& length_percents, double tolerance,
                      std::optional<double> sim3_scale);
 
+// Local scale over windows of `window` poses (0, window, 2 window, ...):
+// gt_positions and est_aligned_positions have the same size.
+LocalScaleResult ComputeLocalScale(const std::vector<Eigen::Vector3d>& gt_positions,
+                                   const std::vector<Eigen::Vector3d>& est_aligned_positions, int window,
+                                   double min_distance_m);
+
 }  // namespace mcvo
