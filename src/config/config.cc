@@ -215,6 +215,7 @@ void Visit(V& v, GlobalBaOptions* o) {
   v.Field("outlier_threshold_px", &o->outlier_threshold_px);
   v.Field("min_observations", &o->min_observations);
   v.Field("function_tolerance", &o->function_tolerance);
+  v.Field("fuse_loop_landmarks", &o->fuse_loop_landmarks);
 }
 
 template <typename V>

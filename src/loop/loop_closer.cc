@@ -78,6 +78,7 @@ struct LoopCloser::Impl {
   struct Features {
     // 2-D features of all cameras: ORB detections and the landmark pixels.
     std::vector<int> camera;
+    std::vector<Eigen::Vector2d> pixel;
     std::vector<Eigen::Vector3d> bearing;
     cv::Mat descriptors;     // CV_8U, 32 bytes per row, one per feature
     int num_detections = 0;  // the first rows are ORB detections (the BoW's words)
@@ -183,6 +184,7 @@ struct LoopCloser::Impl {
       const std::optional<Eigen::Vector3d> bearing =
           rig.cameras[static_cast<size_t>(c)].Unproject({pt.x, pt.y});
       f.camera.push_back(c);
+      f.pixel.emplace_back(pt.x, pt.y);
       f.bearing.push_back(bearing ? bearing->normalized() : Eigen::Vector3d::Zero());
     };
     for (int c = 0; c < n; ++c) {
@@ -311,10 +313,19 @@ struct LoopCloser::Impl {
       }
     }
     std::vector<RigPnpCorrespondence> correspondences;
+    std::vector<LoopAttempt::Match> matches;  // per correspondence
     correspondences.reserve(best_for_landmark.size());
     for (const auto& [landmark, match] : best_for_landmark) {
-      correspondences.push_back({query.camera[static_cast<size_t>(match.second)],
-                                 query.bearing[static_cast<size_t>(match.second)], points[landmark]});
+      const size_t q = static_cast<size_t>(match.second);
+      correspondences.push_back({query.camera[q], query.bearing[q], points[landmark]});
+      LoopAttempt::Match m;
+      m.camera = query.camera[q];
+      m.pixel = query.pixel[q];
+      m.landmark_id = row_landmark[landmark];
+      if (q >= static_cast<size_t>(query.num_detections)) {
+        m.query_landmark_id = query.landmark_id[q - static_cast<size_t>(query.num_detections)];
+      }
+      matches.push_back(m);
     }
     attempt.matches = static_cast<int>(correspondences.size());
     if (attempt.matches < options.min_inliers) {
@@ -348,6 +359,9 @@ struct LoopCloser::Impl {
     }
     const Rigid3d& world_from_candidate = entries[static_cast<size_t>(candidate)].world_from_rig;
     attempt.candidate_from_query = world_from_candidate.Inverse() * pnp.world_from_rig;
+    for (size_t k = 0; k < matches.size(); ++k) {
+      if (pnp.inliers[k]) attempt.inlier_matches.push_back(matches[k]);
+    }
     if (relocalise) {
       attempt.verified = true;
       return attempt;

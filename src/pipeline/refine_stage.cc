@@ -68,6 +68,25 @@ std::vector<GlobalBaPoseConstraint> LoopConstraints(const LoopOutcome* loops, co
   return constraints;
 }
 
+// The inlier matches of the accepted loops whose query is a keyframe of `map`.
+std::vector<LoopLandmarkMatch> LoopMatches(const LoopOutcome* loops, const SparseMap& map) {
+  std::vector<LoopLandmarkMatch> matches;
+  if (loops == nullptr || !loops->applied) return matches;
+  std::map<int, int> keyframe_of_frame;
+  for (size_t k = 0; k < map.keyframes.size(); ++k) {
+    keyframe_of_frame[map.keyframes[k].frame_index] = static_cast<int>(k);
+  }
+  for (const LoopAttempt& attempt : loops->attempts) {
+    if (!attempt.accepted) continue;
+    const auto query = keyframe_of_frame.find(attempt.query_frame);
+    if (query == keyframe_of_frame.end()) continue;
+    for (const LoopAttempt::Match& m : attempt.inlier_matches) {
+      matches.push_back({query->second, m.camera, m.pixel, m.landmark_id, m.query_landmark_id});
+    }
+  }
+  return matches;
+}
+
 }  // namespace
 
 RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, const LoopOutcome* loops,
@@ -80,7 +99,16 @@ RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, con
     MCVO_LOG(kInfo, "run: global bundle adjustment not run: ", outcome.ba.message);
     return outcome;
   }
-  outcome.ba = RunGlobalBundleAdjustment(rig, *map, scale_free, options, LoopConstraints(loops, pose_graph, *map));
+  SparseMap fused = *map;
+  if (options.fuse_loop_landmarks) {
+    outcome.fusion = FuseLoopLandmarks(LoopMatches(loops, *map), &fused);
+    const LandmarkFusionResult& f = outcome.fusion;
+    if (f.landmarks_merged + f.observations_added > 0) {
+      MCVO_LOG(kInfo, "run: loop landmarks fused: ", f.landmarks_merged, " merged, ", f.observations_added,
+               " observations added, ", f.observations_dropped, " dropped");
+    }
+  }
+  outcome.ba = RunGlobalBundleAdjustment(rig, fused, scale_free, options, LoopConstraints(loops, pose_graph, fused));
   const GlobalBaResult& ba = outcome.ba;
   if (!ba.ran) {
     MCVO_LOG(kInfo, "run: global bundle adjustment not run: ", ba.message);

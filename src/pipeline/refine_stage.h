@@ -8,6 +8,7 @@
 #include "mcvo/camera/camera.h"
 #include "mcvo/map/sparse_map.h"
 #include "mcvo/refine/global_ba.h"
+#include "mcvo/refine/landmark_fusion.h"
 #include "odometry_stage.h"
 
 namespace mcvo::pipeline_internal {
@@ -15,6 +16,7 @@ namespace mcvo::pipeline_internal {
 struct RefineOutcome {
   bool applied = false;  // the bundle adjustment ran and its result is used
   GlobalBaResult ba;     // ba.map: the refined map (when applied)
+  LandmarkFusionResult fusion;  // the loops' landmarks fused before it (options.fuse_loop_landmarks)
   OdometryBeforeLoops before;  // poses and keyframes as they were before it
 };
 
@@ -27,7 +29,10 @@ struct RefineOutcome {
 // around it stretched (the refined scale applies between keyframes too);
 // refined landmarks take their new positions.
 // Loops the pose graph accepted (loops: may be null) enter as relative pose
-// constraints with the pose graph's loop sigmas.
+// constraints with the pose graph's loop sigmas and, with
+// options.fuse_loop_landmarks, through their inlier matches: the landmarks
+// seen again are fused first (refine/landmark_fusion.h), so the map that
+// replaces `map` has one landmark per place.
 RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, const LoopOutcome* loops,
                              const PoseGraphOptions& pose_graph, bool scale_free, SparseMap* map,
                              OdometryOutput* odometry);

@@ -292,6 +292,9 @@ Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Ev
   json["keyframes"] = ba.keyframes_refined;
   json["components"] = ba.components;
   json["loop_constraints"] = ba.constraints_used;
+  json["loop_landmarks_merged"] = refine.fusion.landmarks_merged;
+  json["loop_observations_added"] = refine.fusion.observations_added;
+  json["loop_observations_dropped"] = refine.fusion.observations_dropped;
   json["landmarks"] = ba.landmarks_refined;
   json["observations"] = ba.observations_used;
   json["observations_removed"] = ba.observations_removed;

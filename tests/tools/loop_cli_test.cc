@@ -103,6 +103,14 @@ TEST_F(LoopCli, RevisitIsClosedAndImprovesTheTrajectory) {
   EXPECT_GE(result["loops_accepted"].get<int>(), 1);
   ASSERT_TRUE(result["loop_closure_applied"].get<bool>());
   EXPECT_LT(result["ate_rmse_m"].get<double>(), result["ate_rmse_m_before_loop_closure"].get<double>());
+  // The loops' inlier matches fused landmarks of the two visits before the
+  // global BA (refine/landmark_fusion.h): the loop enters it through shared points.
+  const nlohmann::json& ba = result["global_ba"];
+  std::printf("loop landmark fusion: %d merged, %d observations added, %d dropped; ATE before the global BA %.3f m\n",
+              ba["loop_landmarks_merged"].get<int>(), ba["loop_observations_added"].get<int>(),
+              ba["loop_observations_dropped"].get<int>(), ba["ate_rmse_m_before"].get<double>());
+  EXPECT_GE(ba["loop_landmarks_merged"].get<int>(), 100);  // 442 when written
+  EXPECT_GE(ba["loop_observations_added"].get<int>(), 1);  // 15 when written: most inliers are the query's own landmarks
   for (const char* file : {"trajectory_vo.tum", "keyframes_vo.tum", "loops.csv", "eval_vo/eval.json",
                            "trajectory_loop.tum", "keyframes_loop.tum", "eval_loop/eval.json"}) {
     EXPECT_TRUE(fs::is_regular_file(out1 / file)) << file;

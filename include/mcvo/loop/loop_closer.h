@@ -121,6 +121,17 @@ struct LoopAttempt {
   Rigid3d candidate_from_query;  // when verified
   double correction_m = 0.0;     // |odometry relative pose - loop relative pose|, translation
   double correction_deg = 0.0;   // and rotation
+  // When verified: the rig PnP's inlier matches, a query pixel seen as an
+  // earlier keyframe's landmark. query_landmark_id >= 0 when the query
+  // pixel is itself the query keyframe's observation of that landmark (a
+  // duplicate of the same point across the loop), -1 for an ORB detection.
+  struct Match {
+    int camera = 0;
+    Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+    int64_t landmark_id = 0;
+    int64_t query_landmark_id = -1;
+  };
+  std::vector<Match> inlier_matches;
 };
 
 struct LoopTiming {

@@ -66,6 +66,9 @@ struct GlobalBaOptions {
   double outlier_threshold_px = 3.0;  // at virtual_focal_px
   int min_observations = 2;           // per landmark (any camera, any keyframe)
   double function_tolerance = 1e-7;   // Ceres' relative cost change to stop at
+  // Before the BA, fuse the landmarks that accepted loops saw again
+  // (refine/landmark_fusion.h); used by `mcvo run`'s refinement stage.
+  bool fuse_loop_landmarks = true;
 
   // Throws InputError naming the field by its config path ("/refine/...").
   void Check() const;

@@ -1,0 +1,54 @@
+// Landmark fusion across loops (issue 15, item 2): a loop's verification
+// finds pixels of the query keyframe that see landmarks of the keyframes
+// it returned to. The sliding window never knew: the same wall point got a
+// second landmark on the way back. Fusing them makes the loop enter the
+// global bundle adjustment through shared points, as every other constraint
+// does, and leaves one point per place in the COLMAP model.
+//
+//   std::vector<LoopLandmarkMatch> matches = ...;  // loop verification's inliers
+//   LandmarkFusionResult fused = FuseLoopLandmarks(matches, &map);
+//
+// Per match (query keyframe k, camera c, pixel u, earlier landmark L):
+//  - the pixel is k's own observation of landmark M (query_landmark_id):
+//    M and L are one point; they are merged (union over all matches; the
+//    oldest id, the smallest, stays, at its position) and every observation
+//    of M becomes one of L;
+//  - an ORB detection, or a landmark of k the map no longer has: k gains
+//    the observation (c, L, u).
+// A keyframe camera left with two observations of one landmark (it saw the
+// two merged landmarks at different pixels: the merge or one track is
+// wrong) keeps one (the one of the surviving id, else the first in id
+// order); the global BA's outlier rounds judge the rest. An observation is
+// never added to a camera that already sees the landmark. Matches naming a
+// keyframe or landmark the map lacks are ignored.
+// Deterministic: the result depends on the matches' order only through
+// the union (whose result does not).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mcvo/map/sparse_map.h"
+
+namespace mcvo {
+
+struct LoopLandmarkMatch {
+  int keyframe = 0;  // index into SparseMap::keyframes (the query)
+  int camera = 0;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+  int64_t landmark_id = 0;         // the earlier keyframes' landmark
+  int64_t query_landmark_id = -1;  // the query's own landmark at the pixel, or -1
+};
+
+struct LandmarkFusionResult {
+  int landmarks_merged = 0;     // landmarks that became another (removed from the map)
+  int observations_added = 0;   // ORB detections added as observations
+  int observations_dropped = 0; // second observations of one landmark in one keyframe camera
+  int matches_ignored = 0;      // unknown keyframe or landmark
+};
+
+LandmarkFusionResult FuseLoopLandmarks(const std::vector<LoopLandmarkMatch>& matches, SparseMap* map);
+
+}  // namespace mcvo
