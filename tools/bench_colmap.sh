@@ -16,9 +16,9 @@
 #      the first image's pose and one coordinate of the second's position):
 #      its cost before and after, and how far each image's camera centre
 #      moves, median and max, in cm;
-#   3. SIFT features of the same images (`feature_extractor`, one camera per
-#      folder, `sequential_matcher` over 10 neighbours in name order, so each
-#      camera's keyframes in turn), `point_triangulator` with our poses and
+#   3. SIFT features of the same images (`feature_extractor`, 1000 an image,
+#      one camera per folder; `sequential_matcher` over 5 neighbours in name
+#      order, so each camera's keyframes in turn), `point_triangulator` with our poses and
 #      cameras fixed (clear_points: none of our points), then
 #      `bundle_adjuster` on that model: independent features, COLMAP's own
 #      triangulation and BA; its cost and how far the camera centres move.
@@ -165,9 +165,9 @@ for run in $RUNS; do
   read -r ba_initial ba_final < <(ba_costs "$w/ba.log")
   colmap feature_extractor --database_path "$w/db.db" --image_path "$images" \
     --ImageReader.single_camera_per_folder 1 --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads 2 \
-    --SiftExtraction.max_num_features 2000 >"$w/extract.log" 2>&1
+    --SiftExtraction.max_num_features 1000 >"$w/extract.log" 2>&1
   colmap sequential_matcher --database_path "$w/db.db" --SiftMatching.use_gpu 0 --SiftMatching.num_threads 2 \
-    --SequentialMatching.overlap 10 --SequentialMatching.loop_detection 0 >"$w/match.log" 2>&1
+    --SequentialMatching.overlap 5 --SequentialMatching.loop_detection 0 >"$w/match.log" 2>&1
   colmap point_triangulator --database_path "$w/db.db" --image_path "$images" --input_path "$model" \
     --output_path "$w/tri" --clear_points 1 --Mapper.num_threads 2 >"$w/tri.log" 2>&1
   read -r tri_points tri_obs tri_error < <(analyze "$w/tri")
@@ -219,7 +219,7 @@ lines = ["# COLMAP's programs on mcvo's COLMAP models (tools/bench_colmap.sh)", 
          "and after a similarity fitted to the centres).",
          "- ATE: rmse (cm) of the camera centres against the true ones (the dataset's ground truth and rig "
          "extrinsics), SE3 alignment: ours, after COLMAP's BA, after SIFT + COLMAP's BA.",
-         "- SIFT: COLMAP's own features (`feature_extractor`, `sequential_matcher`, 10 neighbours), "
+         "- SIFT: COLMAP's own features (`feature_extractor`, `sequential_matcher`, 5 neighbours, 1000 features an image), "
          "`point_triangulator` with our poses and cameras (points cleared), its mean reprojection error; then "
          "`bundle_adjuster` on that model: cost before / after, centre moves, ATE.",
          "COLMAP 3.8 has no rig: its BA moves every image on its own (the cameras of one frame too), so the scale "
