@@ -105,7 +105,7 @@ RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, con
     const LandmarkFusionResult& f = outcome.fusion;
     if (f.landmarks_merged + f.observations_added > 0) {
       MCVO_LOG(kInfo, "run: loop landmarks fused: ", f.landmarks_merged, " merged, ", f.observations_added,
-               " observations added, ", f.observations_dropped, " dropped");
+               " observations added, ", f.merges_rejected, " merges rejected as ambiguous");
     }
   }
   outcome.ba = RunGlobalBundleAdjustment(rig, fused, scale_free, options, LoopConstraints(loops, pose_graph, fused));

@@ -294,7 +294,7 @@ Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Ev
   json["loop_constraints"] = ba.constraints_used;
   json["loop_landmarks_merged"] = refine.fusion.landmarks_merged;
   json["loop_observations_added"] = refine.fusion.observations_added;
-  json["loop_observations_dropped"] = refine.fusion.observations_dropped;
+  json["loop_merges_rejected"] = refine.fusion.merges_rejected;
   json["landmarks"] = ba.landmarks_refined;
   json["observations"] = ba.observations_used;
   json["observations_removed"] = ba.observations_removed;

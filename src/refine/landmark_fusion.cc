@@ -3,35 +3,12 @@
 
 #include <algorithm>
 #include <map>
+#include <set>
 #include <tuple>
 #include <utility>
 
 namespace mcvo {
 namespace {
-
-// Union-find over landmark ids; the smallest id of a set is its root.
-class IdUnion {
- public:
-  int64_t Find(int64_t id) {
-    auto it = parent_.find(id);
-    if (it == parent_.end()) return id;
-    const int64_t root = Find(it->second);
-    it->second = root;
-    return root;
-  }
-  // True when a and b were in different sets.
-  bool Join(int64_t a, int64_t b) {
-    a = Find(a);
-    b = Find(b);
-    if (a == b) return false;
-    if (b < a) std::swap(a, b);
-    parent_[b] = a;
-    return true;
-  }
-
- private:
-  std::map<int64_t, int64_t> parent_;
-};
 
 bool ObservationOrder(const MapObservation& a, const MapObservation& b) {
   return std::tie(a.camera, a.landmark_id) < std::tie(b.camera, b.landmark_id);
@@ -48,48 +25,71 @@ LandmarkFusionResult FuseLoopLandmarks(const std::vector<LoopLandmarkMatch>& mat
   };
   const auto valid_keyframe = [&](int k) { return k >= 0 && static_cast<size_t>(k) < map->keyframes.size(); };
 
-  // 1. Which landmarks are one.
-  IdUnion same;
+  // 1. Proposed merges: each query landmark and the earlier landmarks it matched.
+  std::map<int64_t, std::set<int64_t>> matched;  // M -> {L}
   for (const LoopLandmarkMatch& m : matches) {
     if (!valid_keyframe(m.keyframe) || !has_landmark(m.landmark_id)) {
       ++result.matches_ignored;
       continue;
     }
-    if (m.query_landmark_id >= 0 && has_landmark(m.query_landmark_id)) {
-      if (same.Join(m.landmark_id, m.query_landmark_id)) ++result.landmarks_merged;
+    if (m.query_landmark_id >= 0 && m.query_landmark_id != m.landmark_id && has_landmark(m.query_landmark_id)) {
+      matched[m.query_landmark_id].insert(m.landmark_id);
     }
   }
-
-  // 2. Every observation under its set's id; one per keyframe camera and id.
-  for (MapKeyframe& kf : map->keyframes) {
-    std::map<std::pair<int, int64_t>, size_t> kept;  // (camera, root) -> index in `out`
-    std::vector<MapObservation> out;
-    out.reserve(kf.observations.size());
+  // One target each, never a chain: M matched one L only, L is no one's
+  // duplicate, M no one's target.
+  std::set<int64_t> targets;
+  for (const auto& [m, ls] : matched) {
+    if (ls.size() == 1) targets.insert(*ls.begin());
+  }
+  std::map<int64_t, int64_t> into;  // M -> L
+  for (const auto& [m, ls] : matched) {
+    if (ls.size() != 1 || targets.count(m) != 0 || matched.count(*ls.begin()) != 0) {
+      ++result.merges_rejected;
+      continue;
+    }
+    into[m] = *ls.begin();
+  }
+  // Two of one group seen by one keyframe camera are two points: their merges go.
+  std::set<int64_t> rejected;
+  for (const MapKeyframe& kf : map->keyframes) {
+    std::map<std::pair<int, int64_t>, std::vector<int64_t>> seen;  // (camera, group) -> members seen
     for (const MapObservation& o : kf.observations) {
-      MapObservation renamed = o;
-      renamed.landmark_id = same.Find(o.landmark_id);
-      const auto [it, inserted] = kept.emplace(std::make_pair(o.camera, renamed.landmark_id), out.size());
-      if (inserted) {
-        out.push_back(renamed);
-        continue;
-      }
-      ++result.observations_dropped;
-      if (o.landmark_id == renamed.landmark_id) out[it->second] = renamed;  // the surviving id's own pixel
+      const auto it = into.find(o.landmark_id);
+      const int64_t group = it != into.end() ? it->second : o.landmark_id;
+      if (it != into.end() || targets.count(o.landmark_id) != 0) seen[{o.camera, group}].push_back(o.landmark_id);
     }
-    kf.observations = std::move(out);
+    for (const auto& [key, members] : seen) {
+      if (members.size() < 2) continue;
+      for (int64_t id : members) {
+        if (into.count(id) != 0) rejected.insert(id);
+      }
+    }
+  }
+  for (int64_t id : rejected) into.erase(id);
+  result.merges_rejected += static_cast<int>(rejected.size());
+  result.landmarks_merged = static_cast<int>(into.size());
+  const auto target_of = [&](int64_t id) {
+    const auto it = into.find(id);
+    return it != into.end() ? it->second : id;
+  };
+
+  // 2. The merged landmarks' observations become their targets'.
+  for (MapKeyframe& kf : map->keyframes) {
+    for (MapObservation& o : kf.observations) o.landmark_id = target_of(o.landmark_id);
   }
 
-  // 3. ORB detections that saw a landmark: new observations.
+  // 3. ORB detections (or query landmarks the map lacks) that saw a landmark: new observations.
   for (const LoopLandmarkMatch& m : matches) {
     if (!valid_keyframe(m.keyframe) || !has_landmark(m.landmark_id)) continue;
-    if (m.query_landmark_id >= 0 && has_landmark(m.query_landmark_id)) continue;  // merged above
-    const int64_t root = same.Find(m.landmark_id);
+    if (m.query_landmark_id >= 0 && has_landmark(m.query_landmark_id)) continue;  // a merge, above
+    const int64_t target = target_of(m.landmark_id);
     MapKeyframe& kf = map->keyframes[static_cast<size_t>(m.keyframe)];
     const bool seen = std::any_of(kf.observations.begin(), kf.observations.end(), [&](const MapObservation& o) {
-      return o.camera == m.camera && o.landmark_id == root;
+      return o.camera == m.camera && o.landmark_id == target;
     });
     if (seen) continue;
-    kf.observations.push_back({m.camera, root, m.pixel});
+    kf.observations.push_back({m.camera, target, m.pixel});
     ++result.observations_added;
   }
   for (MapKeyframe& kf : map->keyframes) {
@@ -98,7 +98,7 @@ LandmarkFusionResult FuseLoopLandmarks(const std::vector<LoopLandmarkMatch>& mat
 
   // 4. The merged landmarks go.
   map->landmarks.erase(std::remove_if(map->landmarks.begin(), map->landmarks.end(),
-                                      [&](const MapLandmark& l) { return same.Find(l.id) != l.id; }),
+                                      [&](const MapLandmark& l) { return into.count(l.id) != 0; }),
                        map->landmarks.end());
   return result;
 }

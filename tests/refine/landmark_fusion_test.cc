@@ -54,7 +54,7 @@ TEST(LandmarkFusion, DuplicatesMergeIntoTheOlderLandmark) {
   const LandmarkFusionResult r = FuseLoopLandmarks(matches, &map);
   EXPECT_EQ(r.landmarks_merged, 2);
   EXPECT_EQ(r.observations_added, 1);
-  EXPECT_EQ(r.observations_dropped, 0);
+  EXPECT_EQ(r.merges_rejected, 0);
   EXPECT_EQ(r.matches_ignored, 0);
   EXPECT_EQ(Ids(map), (std::vector<int64_t>{1, 2, 3, 8, 10}));
   // The old landmarks keep their positions.
@@ -75,36 +75,30 @@ TEST(LandmarkFusion, DuplicatesMergeIntoTheOlderLandmark) {
   EXPECT_EQ(map.keyframes[0].observations.size(), 3u);
 }
 
-TEST(LandmarkFusion, ChainsUniteAndConflictsKeepOneObservation) {
+TEST(LandmarkFusion, AmbiguousMergesAreRejected) {
   SparseMap map = LoopMap();
-  // 8 matched 2, a second loop says 10 is 8 (so 10 is 2), and a third that
-  // 1 is 2: all four are landmark 1. Keyframes 0 and 1 saw 1 and 2 in
-  // camera 0 at different pixels: one of each pair is dropped, 1's own kept.
-  // Keyframe 2 saw 8 in camera 0 and 10 in camera 1: both stay (one
-  // landmark seen by two cameras).
+  map.keyframes[1].observations.push_back(Obs(1, 9, 305));  // keyframe 1 sees 3 and 9 in camera 1
+  map.keyframes[2].observations.push_back(Obs(0, 11, 500));
+  map.landmarks.push_back({11, Eigen::Vector3d(11, 0, 5)});
   const std::vector<LoopLandmarkMatch> matches = {
-      {2, 0, Eigen::Vector2d(210, 10), 2, 8},
-      {2, 1, Eigen::Vector2d(400, 10), 8, 10},
-      {1, 0, Eigen::Vector2d(101, 10), 2, 1},
+      {2, 0, Eigen::Vector2d(110, 10), 1, 7},  // 7 is 1 ...
+      {2, 0, Eigen::Vector2d(110, 10), 2, 7},  // ... or 2: ambiguous
+      {2, 0, Eigen::Vector2d(210, 10), 2, 8},  // 8 is 2, but 8 is a target below: a chain
+      {2, 1, Eigen::Vector2d(400, 10), 8, 10}, // 10 is 8, a duplicate itself
+      {2, 1, Eigen::Vector2d(310, 10), 3, 9},  // 9 is 3, but keyframe 1 sees both: two points
+      {2, 0, Eigen::Vector2d(500, 10), 1, 11}, // 11 is 1: the one merge
   };
   const LandmarkFusionResult r = FuseLoopLandmarks(matches, &map);
-  EXPECT_EQ(r.landmarks_merged, 3);  // 8 -> 2, 10 -> 2, 2 -> 1
-  EXPECT_EQ(Ids(map), (std::vector<int64_t>{1, 3, 7, 9}));
-  // Keyframes 0 and 1 each saw 1 and 2 in camera 0: one observation kept, 1's own.
-  EXPECT_EQ(r.observations_dropped, 2);
-  for (int k : {0, 1}) {
-    const MapKeyframe& kf = map.keyframes[static_cast<size_t>(k)];
-    ASSERT_EQ(kf.observations.size(), 2u);
-    EXPECT_EQ(kf.observations[0].landmark_id, 1);
-    EXPECT_EQ(kf.observations[0].pixel.x(), 100 + k);
-    EXPECT_TRUE(Ordered(kf));
-  }
-  // Keyframe 2: 8 (camera 0) and 10 (camera 1) are both 1 now, one per camera.
+  EXPECT_EQ(r.landmarks_merged, 1);
+  EXPECT_EQ(r.merges_rejected, 4);  // 7, 8, 10, 9
+  EXPECT_EQ(r.observations_added, 0);
+  EXPECT_EQ(Ids(map), (std::vector<int64_t>{1, 2, 3, 7, 8, 9, 10}));
   const MapKeyframe& kf = map.keyframes[2];
   EXPECT_TRUE(Ordered(kf));
-  int ones = 0;
-  for (const MapObservation& o : kf.observations) ones += o.landmark_id == 1 ? 1 : 0;
-  EXPECT_EQ(ones, 2);
+  ASSERT_EQ(kf.observations.size(), 5u);
+  EXPECT_EQ(kf.observations[0].landmark_id, 1);  // 11's observation, now of 1
+  EXPECT_EQ(kf.observations[0].pixel.x(), 500);
+  EXPECT_EQ(map.keyframes[1].observations.size(), 4u);
 }
 
 TEST(LandmarkFusion, UnknownKeyframesAndLandmarksAreIgnoredAndSeenOnesNotAdded) {

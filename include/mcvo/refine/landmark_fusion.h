@@ -10,19 +10,16 @@
 //
 // Per match (query keyframe k, camera c, pixel u, earlier landmark L):
 //  - the pixel is k's own observation of landmark M (query_landmark_id):
-//    M and L are one point; they are merged (union over all matches; the
-//    oldest id, the smallest, stays, at its position) and every observation
-//    of M becomes one of L;
+//    M is a duplicate of L and is merged into it (every observation of M
+//    becomes one of L; L keeps its id and position), unless the evidence
+//    is ambiguous: M matched more than one earlier landmark, M is itself a
+//    merge target or L a duplicate (no chains: a wrong match must not join
+//    two distinct points through a third), or one keyframe camera sees two
+//    of the landmarks that would become one (they are two points then);
 //  - an ORB detection, or a landmark of k the map no longer has: k gains
-//    the observation (c, L, u).
-// A keyframe camera left with two observations of one landmark (it saw the
-// two merged landmarks at different pixels: the merge or one track is
-// wrong) keeps one (the one of the surviving id, else the first in id
-// order); the global BA's outlier rounds judge the rest. An observation is
-// never added to a camera that already sees the landmark. Matches naming a
-// keyframe or landmark the map lacks are ignored.
-// Deterministic: the result depends on the matches' order only through
-// the union (whose result does not).
+//    the observation (c, L, u) unless that camera already sees L.
+// Matches naming a keyframe or landmark the map lacks are ignored. The
+// result does not depend on the matches' order.
 #pragma once
 
 #include <cstdint>
@@ -45,7 +42,7 @@ struct LoopLandmarkMatch {
 struct LandmarkFusionResult {
   int landmarks_merged = 0;     // landmarks that became another (removed from the map)
   int observations_added = 0;   // ORB detections added as observations
-  int observations_dropped = 0; // second observations of one landmark in one keyframe camera
+  int merges_rejected = 0;      // proposed merges left out as ambiguous (see above)
   int matches_ignored = 0;      // unknown keyframe or landmark
 };
 
