@@ -74,9 +74,16 @@ LandmarkFusionResult FuseLoopLandmarks(const std::vector<LoopLandmarkMatch>& mat
     return it != into.end() ? it->second : id;
   };
 
-  // 2. The merged landmarks' observations become their targets'.
-  for (MapKeyframe& kf : map->keyframes) {
-    for (MapObservation& o : kf.observations) o.landmark_id = target_of(o.landmark_id);
+  // 2. The merged landmarks' observations become their targets'. Only the
+  // keyframes that change are sorted again (camera, then landmark id).
+  std::vector<bool> changed(map->keyframes.size(), false);
+  for (size_t k = 0; k < map->keyframes.size(); ++k) {
+    for (MapObservation& o : map->keyframes[k].observations) {
+      const int64_t target = target_of(o.landmark_id);
+      if (target == o.landmark_id) continue;
+      o.landmark_id = target;
+      changed[k] = true;
+    }
   }
 
   // 3. ORB detections (or query landmarks the map lacks) that saw a landmark: new observations.
@@ -90,10 +97,13 @@ LandmarkFusionResult FuseLoopLandmarks(const std::vector<LoopLandmarkMatch>& mat
     });
     if (seen) continue;
     kf.observations.push_back({m.camera, target, m.pixel});
+    changed[static_cast<size_t>(m.keyframe)] = true;
     ++result.observations_added;
   }
-  for (MapKeyframe& kf : map->keyframes) {
-    std::sort(kf.observations.begin(), kf.observations.end(), ObservationOrder);
+  for (size_t k = 0; k < map->keyframes.size(); ++k) {
+    if (!changed[k]) continue;
+    std::vector<MapObservation>& observations = map->keyframes[k].observations;
+    std::stable_sort(observations.begin(), observations.end(), ObservationOrder);
   }
 
   // 4. The merged landmarks go.

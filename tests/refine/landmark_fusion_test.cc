@@ -124,5 +124,20 @@ TEST(LandmarkFusion, UnknownKeyframesAndLandmarksAreIgnoredAndSeenOnesNotAdded) 
   EXPECT_EQ(map.keyframes[2].observations[0].pixel, Eigen::Vector2d(1, 1));
 }
 
+TEST(LandmarkFusion, WithoutMatchesTheMapIsLeftExactlyAsItWas) {
+  SparseMap map = LoopMap();
+  std::swap(map.keyframes[0].observations[0], map.keyframes[0].observations[2]);  // out of order
+  const SparseMap before = map;
+  const LandmarkFusionResult r = FuseLoopLandmarks({}, &map);
+  EXPECT_EQ(r.landmarks_merged + r.observations_added + r.merges_rejected + r.matches_ignored, 0);
+  EXPECT_EQ(Ids(map), Ids(before));
+  for (size_t k = 0; k < map.keyframes.size(); ++k) {
+    ASSERT_EQ(map.keyframes[k].observations.size(), before.keyframes[k].observations.size());
+    for (size_t i = 0; i < map.keyframes[k].observations.size(); ++i) {
+      EXPECT_EQ(map.keyframes[k].observations[i].landmark_id, before.keyframes[k].observations[i].landmark_id);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace mcvo

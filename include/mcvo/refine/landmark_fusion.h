@@ -19,7 +19,9 @@
 //  - an ORB detection, or a landmark of k the map no longer has: k gains
 //    the observation (c, L, u) unless that camera already sees L.
 // Matches naming a keyframe or landmark the map lacks are ignored. The
-// result does not depend on the matches' order.
+// result does not depend on the matches' order. A keyframe that changes has
+// its observations sorted by camera, then landmark id; the others, and the
+// whole map without a match, are left exactly as they were.
 #pragma once
 
 #include <cstdint>
