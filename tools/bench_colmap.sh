@@ -188,7 +188,8 @@ for run in $RUNS; do
 done
 
 COMMIT=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
-COLMAP_VERSION=$(colmap -h 2>&1 | head -1 | sed 's/ -- .*//')
+# sed reads all of it: `head` closing the pipe early fails the pipeline under pipefail.
+COLMAP_VERSION=$(colmap -h 2>&1 | sed -n '1s/ -- .*//p')
 python3 - "$TSV" "$COMMIT" "$COLMAP_VERSION" "$SCRATCH" <<'PY'
 import csv, sys
 tsv, commit, version, scratch = sys.argv[1:]
