@@ -212,8 +212,9 @@ def f(x, d=2):
 
 
 lines = ["# COLMAP's programs on mcvo's COLMAP models (tools/bench_colmap.sh)", "",
-         f"{version}; mcvo commit {commit}; the models of the suite's runs in {scratch}/runs (tools/bench_suite.sh, "
-         "results/suite.md: 300 frames each, after the global BA).", "",
+         f"{version}; this table written at mcvo commit {commit} from the models of the suite's runs in {scratch}/runs "
+         "(tools/bench_suite.sh; results/suite.md names the commit that ran them: 300 frames each, after the global "
+         "BA).", "",
          "- error: mean reprojection error of our model as `colmap model_analyzer` computes it with COLMAP's camera "
          "models.",
          "- COLMAP BA: `colmap bundle_adjuster` on our model (our points and observations), intrinsics fixed; its "
