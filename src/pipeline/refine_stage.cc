@@ -42,15 +42,21 @@ std::vector<double> IntervalStretch(const std::vector<int>& segment, const std::
   return stretch;
 }
 
+// Frame index -> index into map.keyframes.
+std::map<int, int> KeyframeOfFrame(const SparseMap& map) {
+  std::map<int, int> keyframe_of_frame;
+  for (size_t k = 0; k < map.keyframes.size(); ++k) {
+    keyframe_of_frame[map.keyframes[k].frame_index] = static_cast<int>(k);
+  }
+  return keyframe_of_frame;
+}
+
 // The accepted loops of `loops` between keyframes of `map`.
 std::vector<GlobalBaPoseConstraint> LoopConstraints(const LoopOutcome* loops, const PoseGraphOptions& pose_graph,
                                                     const SparseMap& map) {
   std::vector<GlobalBaPoseConstraint> constraints;
   if (loops == nullptr || !loops->applied) return constraints;
-  std::map<int, int> keyframe_of_frame;
-  for (size_t k = 0; k < map.keyframes.size(); ++k) {
-    keyframe_of_frame[map.keyframes[k].frame_index] = static_cast<int>(k);
-  }
+  const std::map<int, int> keyframe_of_frame = KeyframeOfFrame(map);
   for (const LoopAttempt& attempt : loops->attempts) {
     if (!attempt.accepted) continue;
     const auto from = keyframe_of_frame.find(attempt.candidate_frame);
@@ -72,10 +78,7 @@ std::vector<GlobalBaPoseConstraint> LoopConstraints(const LoopOutcome* loops, co
 std::vector<LoopLandmarkMatch> LoopMatches(const LoopOutcome* loops, const SparseMap& map) {
   std::vector<LoopLandmarkMatch> matches;
   if (loops == nullptr || !loops->applied) return matches;
-  std::map<int, int> keyframe_of_frame;
-  for (size_t k = 0; k < map.keyframes.size(); ++k) {
-    keyframe_of_frame[map.keyframes[k].frame_index] = static_cast<int>(k);
-  }
+  const std::map<int, int> keyframe_of_frame = KeyframeOfFrame(map);
   for (const LoopAttempt& attempt : loops->attempts) {
     if (!attempt.accepted) continue;
     const auto query = keyframe_of_frame.find(attempt.query_frame);
