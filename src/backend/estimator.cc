@@ -202,8 +202,10 @@ struct Estimator::Impl {
     }
   }
 
-  void StartFromInitialization(const InitializationResult& init, FrameEstimate* estimate) {
+  void StartFromInitialization(const InitializationResult& init, FrameEstimate* estimate,
+                               bool fixed_poses = false) {
     WindowFromInitialization(init);
+    for (WindowFrame* frame : window.frames()) frame->pose_fixed = fixed_poses;
     Solve(estimate);
     window.RemoveOutliers();
     window.TriangulatePending();
@@ -232,6 +234,54 @@ struct Estimator::Impl {
     scale_log.push_back(std::move(entry));
     init_buffer.clear();
     state = EstimatorState::kTracking;
+  }
+
+  // Estimator::StartFromPoses: the known poses enter like an initialisation
+  // window (landmarks triangulated from the poses), in this world as given.
+  FrameEstimate StartFromPoses(const std::vector<RigFrameObservations>& frames,
+                               const std::vector<Rigid3d>& world_from_rig, double relative_scale_sigma,
+                               const std::string& note) {
+    MCVO_CHECK_MSG(state == EstimatorState::kInitializing && segment == 0 && init_buffer.empty() &&
+                       window.frames().empty() && !last_pose,
+                   "StartFromPoses: only before the first frame");
+    MCVO_CHECK_MSG(frames.size() == world_from_rig.size() && frames.size() >= 2 &&
+                       static_cast<int>(frames.size()) <= options.window_size,
+                   "StartFromPoses: ", frames.size(), " frames, ", world_from_rig.size(), " poses (2 to ",
+                   options.window_size, " needed)");
+    MCVO_CHECK_MSG(relative_scale_sigma > 0.0, "StartFromPoses: scale sigma ", relative_scale_sigma);
+    InitializationResult init;
+    for (size_t k = 0; k < frames.size(); ++k) {
+      MCVO_CHECK_MSG(static_cast<int>(frames[k].cameras.size()) == rig.NumCameras(), "frame ",
+                     frames[k].frame_index, " has ", frames[k].cameras.size(), " cameras, the rig ",
+                     rig.NumCameras());
+      MCVO_CHECK_MSG(k == 0 || frames[k].frame_index > frames[k - 1].frame_index,
+                     "StartFromPoses: frames not in increasing frame_index");
+      init.frame_index.push_back(frames[k].frame_index);
+      init.t_ns.push_back(frames[k].t_ns);
+      init.world_from_rig.push_back(world_from_rig[k]);
+      init_buffer.push_back(frames[k]);
+    }
+    init.anchor_frame_index = frames.front().frame_index;
+    init.camera_used.assign(rig.NumCameras(), true);
+    init.camera_scales.assign(rig.NumCameras(), 0.0);
+    init.relative_scale_sigma = relative_scale_sigma;
+    FrameEstimate estimate;
+    estimate.frame_index = frames.back().frame_index;
+    estimate.t_ns = frames.back().t_ns;
+    estimate.features_per_camera.assign(rig.NumCameras(), 0);
+    estimate.landmarks_per_camera.assign(rig.NumCameras(), 0);
+    for (int c = 0; c < rig.NumCameras(); ++c) {
+      estimate.features_per_camera[c] = static_cast<int>(frames.back().cameras[c].size());
+    }
+    StartFromInitialization(init, &estimate, /*fixed_poses=*/true);
+    scale_log.back().event = "seeded";
+    scale_log.back().note = note;
+    estimate.has_pose = true;
+    estimate.world_from_rig = window.frames().back()->WorldFromRig();
+    estimate.keyframe = true;
+    estimate.state = state;
+    estimate.segment = segment;
+    return estimate;
   }
 
   void StartNewSegment() {
@@ -374,7 +424,11 @@ struct Estimator::Impl {
     }
     // Scale correction once due, in the first window that turns enough for
     // the rig constraint to hold the scale (on a straight it cannot).
-    if (!monocular && options.scale_correction_period > 0 &&
+    // Not while poses known from elsewhere are in the window (StartFromPoses):
+    // they hold the scale.
+    const bool any_fixed = std::any_of(window.frames().begin(), window.frames().end(),
+                                       [](const WindowFrame* f) { return f->pose_fixed; });
+    if (!monocular && !any_fixed && options.scale_correction_period > 0 &&
         solves_since_correction >= options.scale_correction_period &&
         window.RotationDeg() >= options.scale_correction_min_rotation_deg) {
       const auto start = std::chrono::steady_clock::now();
@@ -419,6 +473,12 @@ Estimator::Estimator(const Rig& rig, const InitializerOptions& init_options, con
 Estimator::~Estimator() = default;
 
 FrameEstimate Estimator::AddFrame(const RigFrameObservations& frame) { return impl_->AddFrame(frame); }
+
+FrameEstimate Estimator::StartFromPoses(const std::vector<RigFrameObservations>& frames,
+                                        const std::vector<Rigid3d>& world_from_rig, double relative_scale_sigma,
+                                        const std::string& note) {
+  return impl_->StartFromPoses(frames, world_from_rig, relative_scale_sigma, note);
+}
 
 std::vector<KeyframeEstimate> Estimator::TakeFinishedKeyframes() {
   std::vector<KeyframeEstimate> out = std::move(impl_->finished_keyframes);

@@ -39,6 +39,9 @@ struct WindowFrame {
   int64_t t_ns = 0;
   int segment = 0;
   bool keyframe = false;
+  // A pose known from elsewhere (Estimator::StartFromPoses): held constant
+  // in the window's BA and marginalisation, never rescaled.
+  bool pose_fixed = false;
   std::array<double, kPoseParamSize> pose{};  // world_from_rig, a BA parameter block
   RigFrameObservations obs;
 

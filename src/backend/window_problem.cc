@@ -122,6 +122,9 @@ bool WindowProblem::Solve(LandmarkWindow* window, bool monocular, FrameEstimate*
   }
   // Gauge: the oldest keyframe is held fixed (the prior carries what was learnt before it).
   ceres_problem.SetParameterBlockConstant(frames.front()->pose.data());
+  for (WindowFrame* frame : frames) {
+    if (frame->pose_fixed) ceres_problem.SetParameterBlockConstant(frame->pose.data());
+  }
   // Monocular: the scale gauge too, as the distance from the oldest
   // keyframe to the farthest other one.
   std::unique_ptr<ceres::CostFunction> scale_anchor;
@@ -187,6 +190,9 @@ void WindowProblem::MarginalizeOldest(LandmarkWindow* window) {
   // the relative information of its observations into information on the
   // kept poses.
   marginalizer.SetConstant(oldest->pose.data());
+  for (WindowFrame* frame : window->frames()) {
+    if (frame->pose_fixed) marginalizer.SetConstant(frame->pose.data());
+  }
   for (const Blocks::Block& block : problem.blocks) {
     marginalizer.AddResidualBlock(block.cost, problem.loss.get(), block.params);
   }

@@ -148,6 +148,7 @@ void Visit(V& v, BackendOptions* o) {
   v.Field("refine_extrinsics", &o->refine_extrinsics);
   v.Field("reverse_pass", &o->reverse_pass);
   v.Field("reverse_pass_overlap_frames", &o->reverse_pass_overlap_frames);
+  v.Field("reverse_pass_seeded", &o->reverse_pass_seeded);
 }
 
 template <typename V>

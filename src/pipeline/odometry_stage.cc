@@ -23,6 +23,7 @@ std::unique_ptr<ReversePass> MakeReversePass(const Rig& rig, const PipelineOptio
   if (!options.backend.reverse_pass) return nullptr;
   ReversePassOptions reverse_options;
   reverse_options.overlap_frames = options.backend.reverse_pass_overlap_frames;
+  reverse_options.seed_from_forward = options.backend.reverse_pass_seeded;
   // The reverse run's own scale is replaced by the forward one when it is
   // aligned (a similarity), so its initializer needs the scale only well
   // enough to track: it may use the fallback bound, and the overlap start at
@@ -188,7 +189,9 @@ void OdometryStage::Consume(Estimator* estimator, ReversePass* reverse, const Ri
     out->poses[update.frame_index] = StampedPose{update.t_ns, update.frame_index, update.world_from_rig};
   }
   if (reverse != nullptr) reverse->Add(frame, est);
-  for (KeyframeEstimate& kf : estimator->TakeFinishedKeyframes()) out->keyframes.push_back(std::move(kf));
+  std::vector<KeyframeEstimate> finished = estimator->TakeFinishedKeyframes();
+  if (reverse != nullptr) reverse->AddKeyframes(finished);
+  for (KeyframeEstimate& kf : finished) out->keyframes.push_back(std::move(kf));
   for (const MapLandmark& lm : estimator->TakeFinishedLandmarks()) out->landmarks[lm.id] = lm.position_world;
   for (ScaleLogEntry& entry : estimator->TakeScaleLog()) out->scale_log.push_back(std::move(entry));
   out->segments = std::max(out->segments, est.segment + 1);
@@ -204,8 +207,10 @@ void OdometryStage::Consume(Estimator* estimator, ReversePass* reverse, const Ri
   out->records.push_back({std::move(est), frame.cross_camera.size(), frontend_seconds, backend_seconds});
 }
 
-void OdometryStage::FinishEstimator(Estimator* estimator, OdometryOutput* out) {
-  for (KeyframeEstimate& kf : estimator->Finish()) out->keyframes.push_back(std::move(kf));
+void OdometryStage::FinishEstimator(Estimator* estimator, ReversePass* reverse, OdometryOutput* out) {
+  std::vector<KeyframeEstimate> finished = estimator->Finish();
+  if (reverse != nullptr) reverse->AddKeyframes(finished);
+  for (KeyframeEstimate& kf : finished) out->keyframes.push_back(std::move(kf));
   for (const MapLandmark& lm : estimator->TakeFinishedLandmarks()) out->landmarks[lm.id] = lm.position_world;
   for (ScaleLogEntry& entry : estimator->TakeScaleLog()) out->scale_log.push_back(std::move(entry));
 }
@@ -223,7 +228,7 @@ void OdometryStage::Add(const RigFrameObservations& frame, double frontend_secon
 }
 
 OdometryOutput OdometryStage::Finish() {
-  FinishEstimator(estimator_.get(), &out_);
+  FinishEstimator(estimator_.get(), reverse_.get(), &out_);
   const double sigma = estimator_->SmallestRejectedScaleSigma();
   const double fallback = options_.initializer.max_relative_scale_sigma_fallback;
   const bool relax_sigma =
@@ -255,7 +260,7 @@ OdometryOutput OdometryStage::Finish() {
     for (size_t k = 0; k < unposed_.size(); ++k) {
       Consume(&estimator, reverse_.get(), unposed_[k], unposed_frontend_seconds_[k], &rerun);
     }
-    FinishEstimator(&estimator, &rerun);
+    FinishEstimator(&estimator, reverse_.get(), &rerun);
     // Both passes' back-end time counts; the frontend ran once.
     rerun.totals.initializer += out_.totals.initializer;
     rerun.totals.backend += out_.totals.backend;
@@ -327,7 +332,7 @@ void OdometryStage::MonocularFallback() {
     if (!frame.camera_missing.empty()) one.camera_missing = {frame.camera_missing[static_cast<size_t>(camera)]};
     Consume(&estimator, reverse.get(), one, unposed_frontend_seconds_[k], &rerun);
   }
-  FinishEstimator(&estimator, &rerun);
+  FinishEstimator(&estimator, reverse.get(), &rerun);
   if (rerun.poses.empty()) {
     MCVO_LOG(kWarning, "run: ", name, " alone posed no frame either");
     return;

@@ -68,7 +68,7 @@ class OdometryStage {
  private:
   void Consume(Estimator* estimator, ReversePass* reverse, const RigFrameObservations& frame,
                double frontend_seconds, OdometryOutput* out);
-  void FinishEstimator(Estimator* estimator, OdometryOutput* out);
+  void FinishEstimator(Estimator* estimator, ReversePass* reverse, OdometryOutput* out);
   void MonocularFallback();
 
   const Rig rig_;

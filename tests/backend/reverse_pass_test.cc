@@ -95,26 +95,33 @@ struct Completed {
   ReversePassResult reverse;
 };
 
-Completed RunForwardAndReverse(const Rig& rig, const std::vector<RigFrameObservations>& frames) {
+Completed RunForwardAndReverse(const Rig& rig, const std::vector<RigFrameObservations>& frames,
+                               const ReversePassOptions& reverse_options = ReversePassOptions()) {
   InitializerOptions init_options;
   init_options.max_relative_scale_sigma = 0.02;  // as config/kitti360_3cam.json
   const BackendOptions options;
   Estimator estimator(rig, init_options, options, 2);
-  ReversePass reverse(rig, init_options, options, ReversePassOptions(), 2);
+  ReversePass reverse(rig, init_options, options, reverse_options, 2);
   Completed out;
   for (const RigFrameObservations& frame : frames) {
     const FrameEstimate estimate = estimator.AddFrame(frame);
     for (const PoseUpdate& update : estimate.poses) out.forward[update.frame_index] = update.world_from_rig;
     reverse.Add(frame, estimate);
+    reverse.AddKeyframes(estimator.TakeFinishedKeyframes());
   }
+  reverse.AddKeyframes(estimator.Finish());
   out.reverse = reverse.Run();
   return out;
 }
 
-TEST(ReversePassTest, PosesTheStraightBeforeTheFirstCornerAtTheCornersScale) {
+// seeded: ReversePassOptions::seed_from_forward (step 1 of reverse_pass.h),
+// else the reverse run's own initialisation, aligned (step 2).
+void CheckStraightBeforeFirstCorner(bool seeded) {
   const Rig rig = LoadPresetRig("kitti360_3cam");
   const SyntheticRigTracks truth = StraightThenCorner(rig, 60);
-  const Completed out = RunForwardAndReverse(rig, truth.frames);
+  ReversePassOptions reverse_options;
+  reverse_options.seed_from_forward = seeded;
+  const Completed out = RunForwardAndReverse(rig, truth.frames, reverse_options);
   ASSERT_FALSE(out.forward.empty());
   const int first_forward = out.forward.begin()->first;
   std::printf("forward: first posed frame %d, %zu posed\n", first_forward, out.forward.size());
@@ -124,8 +131,10 @@ TEST(ReversePassTest, PosesTheStraightBeforeTheFirstCornerAtTheCornersScale) {
   const ReversePassReport& report = out.reverse.reports.front();
   std::printf("reverse: %s\n", report.note.c_str());
   ASSERT_TRUE(report.applied) << report.note;
+  EXPECT_EQ(report.seeded, seeded);
   EXPECT_EQ(report.first_posed_frame, first_forward);
   EXPECT_GE(report.overlap_poses, 5);
+  EXPECT_EQ(report.reverse_init_frame, seeded ? first_forward : report.reverse_init_frame);
   // Every frame before the forward initialisation is posed.
   ASSERT_EQ(static_cast<int>(out.reverse.frames.size()), first_forward);
   EXPECT_EQ(out.reverse.frames.front().frame_index, 0);
@@ -162,6 +171,24 @@ TEST(ReversePassTest, PosesTheStraightBeforeTheFirstCornerAtTheCornersScale) {
   const double junction =
       (out.reverse.frames.back().world_from_rig.translation - out.forward.at(first_forward).translation).norm();
   EXPECT_NEAR(junction, 0.6, 0.1);
+  if (seeded) {
+    // The forward segment's own scale over its first 20 frames (where the
+    // seeds are) is what the straight gets: equal to within 1 %.
+    const double forward_ratio =
+        (out.forward.at(first_forward + 20).translation - out.forward.at(first_forward).translation).norm() /
+        (truth.world_from_rig[first_forward + 20].translation - truth.world_from_rig[first_forward].translation)
+            .norm();
+    std::printf("forward scale over its first 20 frames %.4f\n", forward_ratio);
+    EXPECT_NEAR(est_path / gt_path, forward_ratio, 0.01);
+  }
+}
+
+TEST(ReversePassTest, PosesTheStraightBeforeTheFirstCornerFromTheForwardPoses) {
+  CheckStraightBeforeFirstCorner(/*seeded=*/true);
+}
+
+TEST(ReversePassTest, PosesTheStraightBeforeTheFirstCornerFromItsOwnInitialisationAligned) {
+  CheckStraightBeforeFirstCorner(/*seeded=*/false);
 }
 
 TEST(ReversePassTest, CompletesTheFramesAnOverlappingRigWaitedForParallaxOn) {

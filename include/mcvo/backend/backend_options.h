@@ -52,6 +52,10 @@ struct BackendOptions {
   // scale found later; it runs over this many posed frames too, to align.
   bool reverse_pass = true;
   int reverse_pass_overlap_frames = 40;
+  // Start the reverse run at the forward segment's first keyframes (their
+  // final poses, held fixed) instead of its own initialisation aligned
+  // afterwards; the aligned run stays the fallback (reverse_pass.h).
+  bool reverse_pass_seeded = true;
 
   // Throws InputError naming the field by its config path ("/backend/...").
   void Check() const;

@@ -78,7 +78,7 @@ struct ScaleLogEntry {
   int frame_index = 0;
   int64_t t_ns = 0;
   int segment = 0;
-  std::string event;  // "init", "reinit", "lost", "correction"
+  std::string event;  // "init", "reinit", "seeded", "lost", "correction"; "backfill" (reverse_pass.h)
   // init / reinit: each camera's SfM scale (0: camera unused). correction:
   // the ratio applied to each camera's landmark depths (1: none applied).
   std::vector<double> camera_scales;
@@ -155,6 +155,19 @@ class Estimator {
 
   // Frames in increasing frame_index, one entry per rig camera.
   FrameEstimate AddFrame(const RigFrameObservations& frame);
+  // Starts tracking from frames whose poses are already known, instead of
+  // the initializer: an offline pass that continues a world whose metric
+  // scale another pass determined (reverse_pass.h). The frames (2 to
+  // window_size, increasing frame_index) enter the window as keyframes at
+  // the given poses in this estimator's world, their landmarks are
+  // triangulated from those poses, and the window is solved once, as after
+  // an initialisation. relative_scale_sigma starts the scale filter; the
+  // scale log gets a "seeded" entry with `note`. Only before the first
+  // AddFrame. Returns the estimate of the last frame, every frame's pose in
+  // its poses.
+  FrameEstimate StartFromPoses(const std::vector<RigFrameObservations>& frames,
+                               const std::vector<Rigid3d>& world_from_rig, double relative_scale_sigma,
+                               const std::string& note);
   // Keyframes that left the window since the last call, oldest first.
   std::vector<KeyframeEstimate> TakeFinishedKeyframes();
   // Scale log entries since the last call.
