@@ -217,6 +217,10 @@ void Visit(V& v, GlobalBaOptions* o) {
   v.Field("min_observations", &o->min_observations);
   v.Field("function_tolerance", &o->function_tolerance);
   v.Field("fuse_loop_landmarks", &o->fuse_loop_landmarks);
+  v.Field("straight_scale_sigma", &o->straight_scale_sigma);
+  v.Field("straight_max_rotation_deg", &o->straight_max_rotation_deg);
+  v.Field("straight_window_keyframes", &o->straight_window_keyframes);
+  v.Field("straight_overlap_min_landmarks", &o->straight_overlap_min_landmarks);
 }
 
 template <typename V>

@@ -292,6 +292,7 @@ Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Ev
   json["keyframes"] = ba.keyframes_refined;
   json["components"] = ba.components;
   json["loop_constraints"] = ba.constraints_used;
+  json["straight_scale_residuals"] = ba.straight_scale_residuals;
   json["loop_landmarks_merged"] = refine.fusion.landmarks_merged;
   json["loop_observations_added"] = refine.fusion.observations_added;
   json["loop_merges_rejected"] = refine.fusion.merges_rejected;

@@ -57,6 +57,30 @@ class RelativePoseCost {
   double rotation_weight_, translation_weight_;
 };
 
+// Straight-road scale hold (global_ba.h "Scale on straights"): the change
+// of log scale from interval (a, b) to interval (b, c), each relative to its
+// input length, over sigma.
+class StraightScaleCost {
+ public:
+  StraightScaleCost(double length_ab, double length_bc, double sigma)
+      : log_ab_(std::log(length_ab)), log_bc_(std::log(length_bc)), weight_(1.0 / sigma) {}
+
+  template <typename T>
+  bool operator()(const T* a, const T* b, const T* c, T* residual) const {
+    using std::log;
+    using std::sqrt;
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> ta(a), tb(b), tc(c);
+    // log |v| = 0.5 log |v|^2: differentiable everywhere but at 0.
+    const T ab = T(0.5) * log((tb - ta).squaredNorm() + T(1e-18));
+    const T bc = T(0.5) * log((tc - tb).squaredNorm() + T(1e-18));
+    residual[0] = T(weight_) * ((bc - T(log_bc_)) - (ab - T(log_ab_)));
+    return true;
+  }
+
+ private:
+  double log_ab_, log_bc_, weight_;
+};
+
 struct Observation {
   int keyframe = 0;
   int index = 0;     // in the keyframe's observations
@@ -89,6 +113,10 @@ class GlobalProblem {
     const std::vector<MapKeyframe>& keyframes = map.keyframes;
     poses_.resize(keyframes.size());
     for (size_t k = 0; k < keyframes.size(); ++k) PoseToParams(keyframes[k].world_from_rig, poses_[k].data());
+    for (const MapKeyframe& kf : keyframes) {
+      input_poses_.push_back(kf.world_from_rig);
+      segments_.push_back(kf.segment);
+    }
     for (const MapLandmark& landmark : map.landmarks) {
       if (!landmark_index_.emplace(landmark.id, static_cast<int>(landmark_ids_.size())).second) continue;
       landmark_ids_.push_back(landmark.id);
@@ -111,6 +139,20 @@ class GlobalProblem {
         o.bearing = bearing->normalized();
         observations_.push_back(o);
       }
+    }
+    CountSharedLandmarks();
+  }
+
+  // Per keyframe: landmarks seen by two or more of its cameras (overlapping
+  // views), over the observations as loaded.
+  void CountSharedLandmarks() {
+    shared_landmarks_.assign(poses_.size(), 0);
+    std::map<std::pair<int, int>, int> first_camera;  // (keyframe, landmark) -> camera, -1 once shared
+    for (const Observation& o : observations_) {
+      auto [it, inserted] = first_camera.emplace(std::make_pair(o.keyframe, o.landmark), o.camera);
+      if (inserted || it->second < 0 || it->second == o.camera) continue;
+      it->second = -1;
+      ++shared_landmarks_[static_cast<size_t>(o.keyframe)];
     }
   }
 
@@ -162,6 +204,7 @@ class GlobalProblem {
           poses_[static_cast<size_t>(c.to)].data());
     }
     *components = FixGauge(&problem);
+    AddStraightScaleHold(&problem);
 
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     for (size_t i = 0; i < points_.size(); ++i) {
@@ -263,7 +306,42 @@ class GlobalProblem {
     result->landmarks_refined = static_cast<int>(std::count(landmark_used_.begin(), landmark_used_.end(), true));
   }
 
+  int straight_scale_residuals() const { return straight_scale_residuals_; }
+
  private:
+  // global_ba.h "Scale on straights", over the used keyframes in order.
+  void AddStraightScaleHold(ceres::Problem* problem) {
+    straight_scale_residuals_ = 0;
+    if (!(options_.straight_scale_sigma > 0.0)) return;
+    std::vector<int> used;
+    for (size_t k = 0; k < poses_.size(); ++k) {
+      if (keyframe_used_[k]) used.push_back(static_cast<int>(k));
+    }
+    const int n = static_cast<int>(used.size());
+    const int w = options_.straight_window_keyframes;
+    const double max_rotation_rad = options_.straight_max_rotation_deg * M_PI / 180.0;
+    constexpr double kMinIntervalM = 0.01;
+    // Consecutive spans of w keyframes: (i - w, i) and (i, i + w).
+    for (int i = w; i + w < n; i += w) {
+      const size_t a = static_cast<size_t>(used[i - w]), b = static_cast<size_t>(used[i]),
+                   c = static_cast<size_t>(used[i + w]);
+      if (segments_[a] != segments_[c]) continue;
+      if (input_poses_[a].rotation.angularDistance(input_poses_[c].rotation) > max_rotation_rad) continue;
+      // Overlapping views observe the scale through their baselines: no hold there.
+      int shared = 0;
+      for (int j = i - w; j <= i + w; ++j) shared += shared_landmarks_[static_cast<size_t>(used[static_cast<size_t>(j)])];
+      if (shared >= options_.straight_overlap_min_landmarks * (2 * w + 1)) continue;
+      const double ab = (input_poses_[b].translation - input_poses_[a].translation).norm();
+      const double bc = (input_poses_[c].translation - input_poses_[b].translation).norm();
+      if (!(ab >= kMinIntervalM && bc >= kMinIntervalM)) continue;
+      const double sigma = options_.straight_scale_sigma * std::sqrt(0.5 * (ab + bc) / 100.0);
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<StraightScaleCost, 1, kPoseParamSize, kPoseParamSize,
+                                                                kPoseParamSize>(new StraightScaleCost(ab, bc, sigma)),
+                                nullptr, poses_[a].data(), poses_[b].data(), poses_[c].data());
+      ++straight_scale_residuals_;
+    }
+  }
+
   // Both keyframes in the problem, distinct.
   bool ConstraintUsable(const GlobalBaPoseConstraint& c) const {
     const int n = static_cast<int>(poses_.size());
@@ -331,6 +409,10 @@ class GlobalProblem {
   std::map<int64_t, int> landmark_index_;  // id -> index into points_ / landmark_ids_
   std::vector<Observation> observations_;
   std::vector<bool> landmark_used_, keyframe_used_;
+  std::vector<Rigid3d> input_poses_;  // the map's, for the straight-road scale hold
+  std::vector<int> segments_;
+  std::vector<int> shared_landmarks_;  // CountSharedLandmarks
+  int straight_scale_residuals_ = 0;
 };
 
 }  // namespace
@@ -344,6 +426,10 @@ void GlobalBaOptions::Check() const {
   CheckPositive("/refine/outlier_threshold_px", outlier_threshold_px);
   CheckAtLeast("/refine/min_observations", min_observations, 2);
   CheckPositive("/refine/function_tolerance", function_tolerance);
+  CheckAtLeast("/refine/straight_scale_sigma", straight_scale_sigma, 0.0);
+  CheckPositive("/refine/straight_max_rotation_deg", straight_max_rotation_deg);
+  CheckAtLeast("/refine/straight_window_keyframes", straight_window_keyframes, 1);
+  CheckAtLeast("/refine/straight_overlap_min_landmarks", straight_overlap_min_landmarks, 0);
 }
 
 GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, bool scale_free,
@@ -371,6 +457,7 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
     result.final_cost = summary.final_cost;
     result.iterations += static_cast<int>(summary.iterations.size()) - 1;
     result.message = summary.message;
+    result.straight_scale_residuals = problem.straight_scale_residuals();
     ++result.solves;
     if (round == options.outlier_rounds) break;
     const int removed = problem.RemoveOutliers();
