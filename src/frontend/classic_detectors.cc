@@ -157,16 +157,21 @@ class ShiTomasiDetector : public Detector {
     const CandidateGrid grid(image.cols, image.rows);
     const std::vector<float> thresholds = CellThresholds(grid);
 
+    // The cell of each column, once (no division per pixel), and the lowest
+    // threshold, under which no pixel of any cell passes.
+    column_cells_.resize(static_cast<size_t>(response_.cols));
+    for (int x = 0; x < response_.cols; ++x) column_cells_[static_cast<size_t>(x)] = grid.Col(static_cast<float>(x));
+    const float lowest = *std::min_element(thresholds.begin(), thresholds.end());
     std::vector<Eigen::Vector2f> pixels;
     std::vector<float> scores;
     for (int y = 1; y + 1 < response_.rows; ++y) {
       const float* above = response_.ptr<float>(y - 1);
       const float* row = response_.ptr<float>(y);
       const float* below = response_.ptr<float>(y + 1);
-      const int cell_row = grid.Row(y);
+      const float* row_thresholds = &thresholds[static_cast<size_t>(grid.Cell(0, grid.Row(static_cast<float>(y))))];
       for (int x = 1; x + 1 < response_.cols; ++x) {
         const float c = row[x];
-        if (c < thresholds[static_cast<size_t>(grid.Cell(grid.Col(x), cell_row))]) continue;
+        if (c < lowest || c < row_thresholds[column_cells_[static_cast<size_t>(x)]]) continue;
         // Strict 3x3 maximum; on a plateau the first pixel in raster order wins
         // (neighbours before it must be smaller, after it not larger).
         if (!(above[x - 1] < c && above[x] < c && above[x + 1] < c && row[x - 1] < c)) continue;
@@ -217,6 +222,7 @@ class ShiTomasiDetector : public Detector {
 
   cv::Mat response_;             // reused between frames
   std::vector<float> samples_;  // reused between frames
+  std::vector<int> column_cells_;  // reused between frames
 };
 
 class OrbDetector : public Detector {
