@@ -240,37 +240,31 @@ struct ReversePass::Impl {
     entry.event = "backfill";
     ReverseRun run;
     std::string seeded_failure;
-    auto fresh_report = [&] {
-      ReversePassReport fresh;
-      fresh.segment = segment;
-      fresh.first_posed_frame = first_pose;
-      fresh.first_unposed_frame = previous_posed + 1;
-      return fresh;
-    };
     // Unposed frames a run posed.
     auto posed = [&](const ReverseRun& r) {
       return static_cast<int>(std::distance(r.poses.upper_bound(previous_posed), r.poses.lower_bound(first_pose)));
     };
-    if (reverse.seed_from_forward) {
-      if (!SeededRun(segment, first_pose, previous_posed, &run, &report)) {
+    // SeededRun leaves the report untouched when it fails.
+    const bool seeded = reverse.seed_from_forward && SeededRun(segment, first_pose, previous_posed, &run, &report);
+    if (!seeded) {
+      if (reverse.seed_from_forward) {
         seeded_failure = "seeded at the segment's first keyframes it posed no frame before them; ";
-        report = fresh_report();
-      } else if (run.lost_frame >= 0) {
-        // It lost track on the way: the aligned run, initialised elsewhere,
-        // may get further (a marginal frame can fail one run and not the other).
-        ReverseRun aligned;
-        ReversePassReport aligned_report = fresh_report();
-        AlignedRun(segment, first_pose, previous_posed, &aligned, &aligned_report);
-        if (aligned_report.applied && posed(aligned) > posed(run)) {
-          seeded_failure = StrCat("seeded at the segment's first keyframes it posed ", posed(run),
-                                  " frames and lost track at frame ", run.lost_frame, "; ");
-          run = std::move(aligned);
-          report = aligned_report;
-        }
       }
-    }
-    if (!report.seeded && !report.applied && report.note.empty()) {
       AlignedRun(segment, first_pose, previous_posed, &run, &report);
+    } else if (run.lost_frame >= 0) {
+      // It lost track on the way: the aligned run, initialised elsewhere,
+      // may get further (a marginal frame can fail one run and not the other).
+      ReverseRun aligned;
+      ReversePassReport aligned_report = report;
+      aligned_report.seeded = aligned_report.applied = false;
+      aligned_report.overlap_poses = 0;
+      AlignedRun(segment, first_pose, previous_posed, &aligned, &aligned_report);
+      if (aligned_report.applied && posed(aligned) > posed(run)) {
+        seeded_failure = StrCat("seeded at the segment's first keyframes it posed ", posed(run),
+                                " frames and lost track at frame ", run.lost_frame, "; ");
+        run = std::move(aligned);
+        report = aligned_report;
+      }
     }
     report.reverse_init_frame = run.init_frame;
     if (!report.applied) report.note = seeded_failure + report.note;
