@@ -5,7 +5,11 @@
 //     backward check); points that fail, leave the image border or land on a
 //     mask zero are dropped;
 //  3. RANSAC on the bearings of the survivors (bearing_ransac.h);
-//  4. detection where new features are wanted and selection (selection.h).
+//  4. detection where new features are wanted and selection (selection.h);
+//     Shi-Tomasi on an image over frontend.detection_max_megapixels runs on
+//     the pyramid's first level that is not (the level-l pixel x maps to
+//     2^l x + (2^l - 1) / 2 at full resolution, pixel centres at integers)
+//     with the mask reduced to it; LK tracks at full resolution.
 //
 // Decisions:
 //  * The feature budget comes from the camera model: max_features_fisheye for
@@ -54,6 +58,30 @@ cv::Mat SelectRows(const cv::Mat& rows, const std::vector<int>& keep) {
   return out;
 }
 
+// The mask at pyramid level `levels` (each halving both sides, rounding
+// up as pyrDown does): a coarse pixel is usable when all the fine pixels it
+// covers are.
+cv::Mat CoarseMask(const cv::Mat& mask, int levels) {
+  cv::Mat fine = mask;
+  for (int level = 0; level < levels; ++level) {
+    cv::Mat coarse(cv::Size((fine.cols + 1) / 2, (fine.rows + 1) / 2), CV_8UC1);
+    for (int y = 0; y < coarse.rows; ++y) {
+      for (int x = 0; x < coarse.cols; ++x) {
+        bool usable = true;
+        for (int dy = 0; dy < 2; ++dy) {
+          for (int dx = 0; dx < 2; ++dx) {
+            const int fy = std::min(2 * y + dy, fine.rows - 1), fx = std::min(2 * x + dx, fine.cols - 1);
+            usable = usable && fine.at<uint8_t>(fy, fx) != 0;
+          }
+        }
+        coarse.at<uint8_t>(y, x) = usable ? 255 : 0;
+      }
+    }
+    fine = coarse;
+  }
+  return fine;
+}
+
 }  // namespace
 
 struct CameraTracker::Impl {
@@ -64,6 +92,10 @@ struct CameraTracker::Impl {
   cv::Ptr<cv::CLAHE> clahe;
   int max_features = 0;
   int border_px = 1;
+  // Detection on pyramid level detection_level (FrontendOptions::
+  // detection_max_megapixels), with the mask at that level.
+  int detection_level = 0;
+  cv::Mat detection_mask;
 
   // State after the last Track() (+ AssignNewIds): what the next frame tracks.
   std::vector<cv::Mat> prev_pyramid;
@@ -89,7 +121,9 @@ struct CameraTracker::Impl {
   void RejectByRansac(std::vector<int>* kept, std::vector<cv::Point2f>* kept_pixels,
                       CameraFrameStats* stats) const;
   // Detection and selection of new features up to max_features.
-  void AddNewFeatures(const cv::Mat& image, CameraFrameResult* result) const;
+  void AddNewFeatures(const cv::Mat& image, const std::vector<cv::Mat>& pyramid, CameraFrameResult* result) const;
+  // Detections on detection_level, in full-resolution pixels.
+  Detections Detect(const cv::Mat& image, const std::vector<cv::Mat>& pyramid, int cap) const;
 };
 
 CameraTracker::CameraTracker(const Camera& camera, const cv::Mat& mask, const FrontendOptions& options,
@@ -113,6 +147,17 @@ CameraTracker::CameraTracker(const Camera& camera, const cv::Mat& mask, const Fr
   impl_->max_features = IsFisheye(camera.model) ? options.max_features_fisheye : options.max_features_pinhole;
   impl_->border_px =
       options.detector == DetectorType::kSuperPoint ? std::max(1, options.superpoint.border_px) : 1;
+  if (options.detector == DetectorType::kShiTomasi && options.detection_max_megapixels > 0.0) {
+    const double max_pixels = options.detection_max_megapixels * 1e6;
+    double pixels = static_cast<double>(camera.width) * camera.height;
+    while (pixels > max_pixels && impl_->detection_level < options.lk.pyramid_levels) {
+      ++impl_->detection_level;
+      pixels /= 4.0;
+    }
+  }
+  if (impl_->detection_level > 0 && !impl_->mask.empty()) {
+    impl_->detection_mask = CoarseMask(impl_->mask, impl_->detection_level);
+  }
 }
 
 CameraTracker::~CameraTracker() = default;
@@ -168,7 +213,7 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   stats.tracked = static_cast<int>(kept.size());
 
   // 4. Detection and selection of new features.
-  AddNewFeatures(image, &result);
+  AddNewFeatures(image, pyramid, &result);
 
   double length_sum = 0.0;
   std::vector<Eigen::Vector2f> pixels;
@@ -274,12 +319,32 @@ Detections DetectionRows(const Detections& all, const std::vector<size_t>& rows)
 
 }  // namespace
 
-void CameraTracker::Impl::AddNewFeatures(const cv::Mat& image, CameraFrameResult* result) const {
+Detections CameraTracker::Impl::Detect(const cv::Mat& image, const std::vector<cv::Mat>& pyramid, int cap) const {
+  // buildOpticalFlowPyramid with derivatives: level l's image at 2 l.
+  const size_t index = static_cast<size_t>(2 * detection_level);
+  if (detection_level == 0 || index >= pyramid.size()) return detector->Detect(image, mask, cap, border_px);
+  Detections detections = detector->Detect(pyramid[index], detection_mask, cap, 1);
+  // Pixel centres: coarse x covers fine 2x - 0.5 .. 2x + 1.5, centre 2x + 0.5.
+  const float factor = static_cast<float>(1 << detection_level);
+  const float offset = 0.5f * (factor - 1.0f);
+  Detections out;
+  out.descriptors = detections.descriptors;
+  for (size_t k = 0; k < detections.pixels.size(); ++k) {
+    const Eigen::Vector2f p = detections.pixels[k] * factor + Eigen::Vector2f(offset, offset);
+    if (!Usable(cv::Point2f(p.x(), p.y()))) continue;
+    out.pixels.push_back(p);
+    out.scores.push_back(detections.scores[k]);
+  }
+  return out;
+}
+
+void CameraTracker::Impl::AddNewFeatures(const cv::Mat& image, const std::vector<cv::Mat>& pyramid,
+                                         CameraFrameResult* result) const {
   const int wanted = max_features - result->stats.tracked;
   if (wanted <= 0) return;
   auto start = Clock::now();
   const int cap = std::max(1, options.candidate_factor) * wanted;
-  const Detections detections = detector->Detect(image, mask, cap, border_px);
+  const Detections detections = Detect(image, pyramid, cap);
   result->stats.seconds_detect = SecondsSince(start);
   start = Clock::now();
   // Two passes: the best `cap` candidates by score first (the first `cap`

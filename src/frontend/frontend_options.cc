@@ -14,6 +14,7 @@ void FrontendOptions::Check() const {
   CheckPositive("/frontend/max_features_fisheye", max_features_fisheye);
   CheckAtLeast("/frontend/min_distance_px", min_distance_px, 0);
   CheckAtLeast("/frontend/candidate_factor", candidate_factor, 1);
+  CheckAtLeast("/frontend/detection_max_megapixels", detection_max_megapixels, 0.0);
   CheckPositive("/frontend/ransac_threshold_px", ransac_threshold_px);
   CheckPositive("/frontend/ransac_focal_px", ransac_focal_px);
   CheckPositive("/frontend/clahe/clip_limit", clahe.clip_limit);

@@ -84,6 +84,10 @@ struct FrontendOptions {
   int min_distance_px = 20;
   FeatureSelection selection = FeatureSelection::kThreePriority;
   int candidate_factor = 4;  // keep the best factor x (max - tracked) new detections before selection
+  // Shi-Tomasi on a camera image of more megapixels than this runs on the
+  // LK pyramid's first level that is not (each level halves both sides);
+  // the detections are scaled to full resolution. 0: always full resolution.
+  double detection_max_megapixels = 1.0;
   double ransac_threshold_px = 1.0;
   double ransac_focal_px = 460.0;  // virtual pinhole focal the threshold is expressed at
   ClaheOptions clahe;
