@@ -205,7 +205,9 @@ struct Estimator::Impl {
   void StartFromInitialization(const InitializationResult& init, FrameEstimate* estimate,
                                bool fixed_poses = false) {
     WindowFromInitialization(init);
-    for (WindowFrame* frame : window.frames()) frame->pose_fixed = fixed_poses;
+    if (fixed_poses) {
+      for (WindowFrame* frame : window.frames()) frame->pose_fixed = true;
+    }
     Solve(estimate);
     window.RemoveOutliers();
     window.TriangulatePending();
@@ -234,6 +236,19 @@ struct Estimator::Impl {
     scale_log.push_back(std::move(entry));
     init_buffer.clear();
     state = EstimatorState::kTracking;
+  }
+
+  // The estimate of `input` before anything is done with it: its features per camera.
+  FrameEstimate NewEstimate(const RigFrameObservations& input) const {
+    FrameEstimate estimate;
+    estimate.frame_index = input.frame_index;
+    estimate.t_ns = input.t_ns;
+    estimate.features_per_camera.assign(rig.NumCameras(), 0);
+    estimate.landmarks_per_camera.assign(rig.NumCameras(), 0);
+    for (int c = 0; c < rig.NumCameras(); ++c) {
+      estimate.features_per_camera[c] = static_cast<int>(input.cameras[c].size());
+    }
+    return estimate;
   }
 
   // Estimator::StartFromPoses: the known poses enter like an initialisation
@@ -265,14 +280,7 @@ struct Estimator::Impl {
     init.camera_used.assign(rig.NumCameras(), true);
     init.camera_scales.assign(rig.NumCameras(), 0.0);
     init.relative_scale_sigma = relative_scale_sigma;
-    FrameEstimate estimate;
-    estimate.frame_index = frames.back().frame_index;
-    estimate.t_ns = frames.back().t_ns;
-    estimate.features_per_camera.assign(rig.NumCameras(), 0);
-    estimate.landmarks_per_camera.assign(rig.NumCameras(), 0);
-    for (int c = 0; c < rig.NumCameras(); ++c) {
-      estimate.features_per_camera[c] = static_cast<int>(frames.back().cameras[c].size());
-    }
+    FrameEstimate estimate = NewEstimate(frames.back());
     StartFromInitialization(init, &estimate, /*fixed_poses=*/true);
     scale_log.back().event = "seeded";
     scale_log.back().note = note;
@@ -302,14 +310,7 @@ struct Estimator::Impl {
   FrameEstimate AddFrame(const RigFrameObservations& input) {
     MCVO_CHECK_MSG(static_cast<int>(input.cameras.size()) == rig.NumCameras(), "frame ", input.frame_index,
                    " has ", input.cameras.size(), " cameras, the rig ", rig.NumCameras());
-    FrameEstimate estimate;
-    estimate.frame_index = input.frame_index;
-    estimate.t_ns = input.t_ns;
-    estimate.features_per_camera.assign(rig.NumCameras(), 0);
-    estimate.landmarks_per_camera.assign(rig.NumCameras(), 0);
-    for (int c = 0; c < rig.NumCameras(); ++c) {
-      estimate.features_per_camera[c] = static_cast<int>(input.cameras[c].size());
-    }
+    FrameEstimate estimate = NewEstimate(input);
     if (state == EstimatorState::kTracking && !Track(input, &estimate)) {
       // Lost: a new segment starts with this frame.
       StartNewSegment();

@@ -324,11 +324,11 @@ Detections CameraTracker::Impl::Detect(const cv::Mat& image, const std::vector<c
   const size_t index = static_cast<size_t>(2 * detection_level);
   if (detection_level == 0 || index >= pyramid.size()) return detector->Detect(image, mask, cap, border_px);
   Detections detections = detector->Detect(pyramid[index], detection_mask, cap, 1);
+  MCVO_CHECK(detections.descriptors.empty());  // Shi-Tomasi only: pixels and scores
   // Pixel centres: coarse x covers fine 2x - 0.5 .. 2x + 1.5, centre 2x + 0.5.
   const float factor = static_cast<float>(1 << detection_level);
   const float offset = 0.5f * (factor - 1.0f);
   Detections out;
-  out.descriptors = detections.descriptors;
   for (size_t k = 0; k < detections.pixels.size(); ++k) {
     const Eigen::Vector2f p = detections.pixels[k] * factor + Eigen::Vector2f(offset, offset);
     if (!Usable(cv::Point2f(p.x(), p.y()))) continue;

@@ -68,7 +68,6 @@ class StraightScaleCost {
   template <typename T>
   bool operator()(const T* a, const T* b, const T* c, T* residual) const {
     using std::log;
-    using std::sqrt;
     const Eigen::Map<const Eigen::Matrix<T, 3, 1>> ta(a), tb(b), tc(c);
     // log |v| = 0.5 log |v|^2: differentiable everywhere but at 0.
     const T ab = T(0.5) * log((tb - ta).squaredNorm() + T(1e-18));
@@ -109,14 +108,11 @@ class GlobalProblem {
         constraints_(constraints),
         scale_free_(scale_free),
         cam_from_rig_(rig.CamFromRig()),
-        sqrt_information_(options.virtual_focal_px / options.reprojection_sigma_px) {
+        sqrt_information_(options.virtual_focal_px / options.reprojection_sigma_px),
+        input_(map.keyframes) {
     const std::vector<MapKeyframe>& keyframes = map.keyframes;
     poses_.resize(keyframes.size());
     for (size_t k = 0; k < keyframes.size(); ++k) PoseToParams(keyframes[k].world_from_rig, poses_[k].data());
-    for (const MapKeyframe& kf : keyframes) {
-      input_poses_.push_back(kf.world_from_rig);
-      segments_.push_back(kf.segment);
-    }
     for (const MapLandmark& landmark : map.landmarks) {
       if (!landmark_index_.emplace(landmark.id, static_cast<int>(landmark_ids_.size())).second) continue;
       landmark_ids_.push_back(landmark.id);
@@ -325,14 +321,15 @@ class GlobalProblem {
     for (int i = w; i + w < n; i += w) {
       const size_t a = static_cast<size_t>(used[i - w]), b = static_cast<size_t>(used[i]),
                    c = static_cast<size_t>(used[i + w]);
-      if (segments_[a] != segments_[c]) continue;
-      if (input_poses_[a].rotation.angularDistance(input_poses_[c].rotation) > max_rotation_rad) continue;
+      const Rigid3d &pa = input_[a].world_from_rig, &pb = input_[b].world_from_rig, &pc = input_[c].world_from_rig;
+      if (input_[a].segment != input_[c].segment) continue;
+      if (pa.rotation.angularDistance(pc.rotation) > max_rotation_rad) continue;
       // Overlapping views observe the scale through their baselines: no hold there.
       int shared = 0;
       for (int j = i - w; j <= i + w; ++j) shared += shared_landmarks_[static_cast<size_t>(used[static_cast<size_t>(j)])];
       if (shared >= options_.straight_overlap_min_landmarks * (2 * w + 1)) continue;
-      const double ab = (input_poses_[b].translation - input_poses_[a].translation).norm();
-      const double bc = (input_poses_[c].translation - input_poses_[b].translation).norm();
+      const double ab = (pb.translation - pa.translation).norm();
+      const double bc = (pc.translation - pb.translation).norm();
       if (!(ab >= kMinIntervalM && bc >= kMinIntervalM)) continue;
       const double sigma = options_.straight_scale_sigma * std::sqrt(0.5 * (ab + bc) / 100.0);
       problem->AddResidualBlock(new ceres::AutoDiffCostFunction<StraightScaleCost, 1, kPoseParamSize, kPoseParamSize,
@@ -409,8 +406,7 @@ class GlobalProblem {
   std::map<int64_t, int> landmark_index_;  // id -> index into points_ / landmark_ids_
   std::vector<Observation> observations_;
   std::vector<bool> landmark_used_, keyframe_used_;
-  std::vector<Rigid3d> input_poses_;  // the map's, for the straight-road scale hold
-  std::vector<int> segments_;
+  const std::vector<MapKeyframe>& input_;  // the map's keyframes as given (the straight-road scale hold)
   std::vector<int> shared_landmarks_;  // CountSharedLandmarks
   int straight_scale_residuals_ = 0;
 };
