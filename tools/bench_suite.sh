@@ -208,9 +208,22 @@ synth_args() {  # index -> SYNTH_ARGS (everything but --out, --force and --threa
   SYNTH_ARGS+=(--scene "${SCENES[$i]}" --frames "$FRAMES" --seed "${SEEDS[$i]}" --image-scale "$scale"
                ${EFFECTS[$i]})
 }
+# Renders of a scene from before a change of what `mcvo synth` draws for the
+# same arguments are stale: such a change adds a line here, which changes
+# the hash of that scene's sequences only.
+scene_revision() {
+  case "$1" in
+    # 2026-11-26: rigs lowered to keep every camera 0.3 m under the 2.8 m
+    # ceiling (synthesize.cc, FitRigHeight); irregular5, tri_rear and
+    # roof_pair had cameras in or above it.
+    indoor) echo "indoor: rig fitted under the ceiling" ;;
+  esac
+}
 seq_dir() {  # index -> SEQ_DIR (needs SYNTH_ARGS of that index)
-  local i=$1 key
+  local i=$1 key revision
   key=$(printf '%s\n' "${SYNTH_ARGS[@]}")
+  revision=$(scene_revision "${SCENES[$i]}")
+  [[ -z "$revision" ]] || key+=$'\n'"$revision"
   case "${RIGS[$i]}" in
     preset:*) ;;
     *) key+=$'\n'"rig sha256 $(sha256sum "${RIGS[$i]}" | cut -d' ' -f1)" ;;

@@ -31,6 +31,7 @@ void Visit(V& v, LkOptions* o) {
   v.Field("max_iterations", &o->max_iterations);
   v.Field("forward_backward_check", &o->forward_backward_check);
   v.Field("forward_backward_threshold_px", &o->forward_backward_threshold_px);
+  v.Field("predict_flow", &o->predict_flow);
 }
 
 template <typename V>

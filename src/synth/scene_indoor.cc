@@ -70,6 +70,7 @@ class IndoorBuilder {
     result_.style = MotionStyle::kHandheld;
     result_.speed_mps = 1.2;
     result_.rig_height_m = 1.4;
+    result_.ceiling_height_m = kHeight;
     result_.scene.Build();
     return std::move(result_);
   }

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 #include <string_view>
 #include <system_error>
@@ -62,8 +63,45 @@ Rig ResolveRig(const SynthOptions& options) {
   return rig;
 }
 
+// The trajectory of RouteTrajectorySpec, with the rig lowered where the
+// scene has a ceiling and a camera would come within kCeilingClearanceM of
+// it anywhere on the route (the route's sway and bob included): a rig
+// built for a car roof (cameras 1.2 to 1.9 m above its origin) carried
+// through a 2.8 m corridor would otherwise put its cameras in or above the
+// ceiling, looking at the ceiling's back from a few centimetres. Throws
+// UsageError when the cameras span more height than the room leaves.
+TrajectorySpec FitRigHeight(const SceneWithRoute& world, const Rig& rig, const std::string& scene_name,
+                            uint64_t seed) {
+  TrajectorySpec spec = RouteTrajectorySpec(world, seed);
+  if (!(world.ceiling_height_m > 0.0)) return spec;
+  const SmoothTrajectory trajectory(spec);
+  double lowest = std::numeric_limits<double>::infinity();
+  double highest = -lowest;
+  const int64_t step_ns = 50'000'000;  // 20 Hz: finer than the sway and bob
+  for (int64_t t_ns = 0; t_ns <= trajectory.DurationNs(); t_ns += step_ns) {
+    const Rigid3d world_from_rig = trajectory.WorldFromRig(t_ns);
+    for (const Camera& camera : rig.cameras) {
+      const double z = (world_from_rig * camera.cam_from_rig.Inverse()).translation.z();
+      lowest = std::min(lowest, z);
+      highest = std::max(highest, z);
+    }
+  }
+  const double top = world.ceiling_height_m - kCeilingClearanceM;
+  if (highest <= top) return spec;
+  const double drop = highest - top;
+  if (lowest - drop < kFloorClearanceM) {
+    throw UsageError(StrCat("the rig's cameras span ", FormatFixed(highest - lowest, 2),
+                            " m in height on scene '", scene_name, "', more than its ",
+                            FormatFixed(world.ceiling_height_m, 2), " m ceiling leaves (",
+                            FormatFixed(kFloorClearanceM, 2), " m above the floor, ",
+                            FormatFixed(kCeilingClearanceM, 2), " m below the ceiling)"));
+  }
+  spec.rig_height_m -= drop;
+  return spec;
+}
+
 std::string MetaJson(const SynthOptions& options, const std::string& scene_name, const SceneWithRoute& scene,
-                     double route_length_m, const Rig& rig, int frames) {
+                     const TrajectorySpec& spec, double route_length_m, const Rig& rig, int frames) {
   nlohmann::ordered_json j;
   j["generator"] = "mcvo synth";
   j["preset"] = options.preset;
@@ -76,6 +114,7 @@ std::string MetaJson(const SynthOptions& options, const std::string& scene_name,
   j["image_scale"] = options.image_scale;
   j["route_length_m"] = route_length_m;
   j["route_closed"] = scene.route_closed;
+  j["rig_height_m"] = spec.rig_height_m;
   j["samples_per_axis"] = options.render.samples_per_axis;
   const RenderEffects& e = options.render.effects;
   j["effects"] = {
@@ -179,7 +218,8 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
                             " but the rig has ", rig.NumCameras(), " cameras"));
   }
   const SceneWithRoute world = BuildScene(scene_name, options.seed);
-  const SmoothTrajectory trajectory(RouteTrajectorySpec(world, options.seed));
+  const TrajectorySpec spec = FitRigHeight(world, rig, scene_name, options.seed);
+  const SmoothTrajectory trajectory(spec);
   const double period_s = 1.0 / options.frame_rate_hz;
   const int64_t period_ns = std::llround(period_s * 1e9);
   if (options.laps > 1.0 && !world.route_closed) {
@@ -269,7 +309,7 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
   WriteTrajectory(staging.path() / "groundtruth.tum", ground_truth, TrajectoryFormat::kTum);
   WriteSceneCsv(staging.path() / "structure" / "scene_quads.csv", world.scene);
   WriteFileAtomic(staging.path() / "meta.json",
-                  MetaJson(options, scene_name, world, trajectory.LengthM(), rig, frames));
+                  MetaJson(options, scene_name, world, spec, trajectory.LengthM(), rig, frames));
 
   if (std::filesystem::exists(absolute_out, ec)) std::filesystem::remove_all(absolute_out, ec);
   std::filesystem::rename(staging.path(), absolute_out, ec);

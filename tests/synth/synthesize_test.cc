@@ -10,6 +10,7 @@
 #include "mcvo/io/frame_table.h"
 #include "mcvo/io/rig_io.h"
 #include "mcvo/io/trajectory_io.h"
+#include "mcvo/synth/scene.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 
@@ -165,6 +166,82 @@ TEST(Synthesize, BadOptionsFailBeforeWritingAnything) {
   bad_blackout.render.effects.blackout_camera = 9;
   bad_blackout.render.effects.blackout_num_frames = 1;
   EXPECT_THROW(Synthesize(bad_blackout, out), UsageError);
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// The whole indoor route of `preset` at 1 frame/s and tiny images: the
+// ground truth of every camera, and meta.json's rig height.
+struct IndoorRoute {
+  Rig rig;
+  Trajectory ground_truth;
+  double rig_height_m = 0.0;
+};
+IndoorRoute RenderIndoorRoute(const std::string& preset, const std::string& name) {
+  SynthOptions options;
+  options.preset = preset;
+  options.scene = "indoor";
+  options.frame_rate_hz = 1.0;
+  options.image_scale = 0.05;
+  options.seed = 43;
+  options.render.samples_per_axis = 1;
+  const fs::path out = TempDir(name);
+  Synthesize(options, out);
+  IndoorRoute route{ReadRig(out / "rig.json"), ReadTrajectory(out / "groundtruth.tum", TrajectoryFormat::kTum),
+                    0.0};
+  const std::string meta = ReadFileToString(out / "meta.json");
+  const size_t at = meta.find("\"rig_height_m\": ");
+  EXPECT_NE(at, std::string::npos);
+  if (at != std::string::npos) route.rig_height_m = std::stod(meta.substr(at + 16));
+  return route;
+}
+
+// irregular5 is a car-roof rig (cameras 1.2 to 1.9 m above its origin):
+// carried at the indoor scene's 1.4 m it put cameras in and above the 2.8 m
+// ceiling. synth lowers it until every camera stays kCeilingClearanceM
+// under the ceiling all along the route; multicam6 (cameras at its origin)
+// fits and is not moved.
+TEST(Synthesize, IndoorRigsAreFittedUnderTheCeiling) {
+  const IndoorRoute tall = RenderIndoorRoute("irregular5", "fit_irregular5");
+  ASSERT_GT(tall.ground_truth.poses.size(), 50u);
+  double highest = -1e9, lowest = 1e9;
+  for (const StampedPose& pose : tall.ground_truth.poses) {
+    for (const Camera& camera : tall.rig.cameras) {
+      const double z = (pose.world_from_body * camera.cam_from_rig.Inverse()).translation.z();
+      highest = std::max(highest, z);
+      lowest = std::min(lowest, z);
+    }
+  }
+  EXPECT_LE(highest, 2.8 - kCeilingClearanceM + 1e-9);
+  EXPECT_GT(highest, 2.8 - kCeilingClearanceM - 0.05);  // lowered no more than needed (route sampled at 20 Hz)
+  EXPECT_GE(lowest, kFloorClearanceM);
+  EXPECT_LT(tall.rig_height_m, 1.4 - 0.5);
+
+  const IndoorRoute fits = RenderIndoorRoute("multicam6", "fit_multicam6");
+  EXPECT_EQ(fits.rig_height_m, 1.4);
+}
+
+// A rig taller than the room leaves cannot be fitted: a usage error, and
+// nothing is written.
+TEST(Synthesize, ARigTallerThanTheRoomIsRefused) {
+  Rig rig = PresetRig("stereo");
+  Camera& camera = rig.cameras[1];
+  // Its centre 3 m above camera 0's (rig axes: z down).
+  camera.cam_from_rig.translation =
+      rig.cameras[0].cam_from_rig.translation + camera.cam_from_rig.RotationMatrix() * Eigen::Vector3d(0, 0, 3.0);
+  const fs::path out = TempDir("tall");
+  const fs::path rig_path = out.parent_path() / "tall_rig.json";
+  WriteRig(rig_path, rig);
+  SynthOptions options;
+  options.rig_path = rig_path;
+  options.scene = "indoor";
+  options.frames = 2;
+  options.image_scale = 0.05;
+  try {
+    Synthesize(options, out);
+    ADD_FAILURE() << "no error";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("more than its 2.80 m ceiling leaves"), std::string::npos) << e.what();
+  }
   EXPECT_FALSE(fs::exists(out));
 }
 

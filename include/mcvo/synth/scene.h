@@ -153,7 +153,16 @@ struct SceneWithRoute {
   MotionStyle style = MotionStyle::kVehicle;
   double speed_mps = 10.0;
   double rig_height_m = 1.2;  // height of the rig origin above the ground
+  // Height of the ceiling over the whole route, 0 for open sky. `mcvo synth`
+  // lowers a rig whose cameras would come closer to it than
+  // kCeilingClearanceM (synthesize.cc, FitRigHeight).
+  double ceiling_height_m = 0.0;
 };
+
+// Least distance between a camera centre and the ceiling, or the floor, of
+// a scene with a ceiling, anywhere on the route.
+inline constexpr double kCeilingClearanceM = 0.3;
+inline constexpr double kFloorClearanceM = 0.2;
 
 // Scene builders. Deterministic for a seed.
 // urban: a grid of streets with building facades on both sides,
