@@ -560,6 +560,25 @@ struct WorldPointFunctor {
   }
 };
 
+struct WorldPointExtrinsicFunctor {
+  Eigen::Vector3d bearing;
+  Matrix23 basis;
+  double sqrt_information;
+
+  template <typename T>
+  bool operator()(const T* pose, const T* extrinsic, const T* point, T* residual) const {
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t(pose), x(point), tc(extrinsic);
+    const Eigen::Map<const Eigen::Quaternion<T>> q(pose + 3), qc(extrinsic + 3);
+    const Eigen::Matrix<T, 3, 1> p = qc * (q.conjugate() * (x - t)) + tc;
+    const T norm = p.norm();
+    if (!(norm > T(0))) return false;
+    const Eigen::Matrix<T, 2, 1> r = basis.cast<T>() * (p / norm - bearing.cast<T>());
+    residual[0] = T(sqrt_information) * r[0];
+    residual[1] = T(sqrt_information) * r[1];
+    return true;
+  }
+};
+
 void CheckWorldPointInputs(const Eigen::Vector3d& observed_bearing, double sqrt_information) {
   MCVO_CHECK_MSG(observed_bearing.allFinite() && observed_bearing.norm() > 0.0 && sqrt_information > 0.0,
                  "world point factor: bearing must be finite and non-zero, sqrt_information > 0");
@@ -579,6 +598,13 @@ ceres::CostFunction* NewWorldPointFactorAutoDiff(const Eigen::Vector3d& observed
   const Eigen::Vector3d b = observed_bearing.normalized();
   return new ceres::AutoDiffCostFunction<WorldPointFunctor, 2, kPoseParamSize, 3>(new WorldPointFunctor{
       b, TangentBasis(b), cam_from_rig.RotationMatrix(), cam_from_rig.translation, sqrt_information});
+}
+
+ceres::CostFunction* NewWorldPointExtrinsicFactor(const Eigen::Vector3d& observed_bearing, double sqrt_information) {
+  CheckWorldPointInputs(observed_bearing, sqrt_information);
+  const Eigen::Vector3d b = observed_bearing.normalized();
+  return new ceres::AutoDiffCostFunction<WorldPointExtrinsicFunctor, 2, kPoseParamSize, kPoseParamSize, 3>(
+      new WorldPointExtrinsicFunctor{b, TangentBasis(b), sqrt_information});
 }
 
 namespace {

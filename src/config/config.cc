@@ -31,7 +31,6 @@ void Visit(V& v, LkOptions* o) {
   v.Field("max_iterations", &o->max_iterations);
   v.Field("forward_backward_check", &o->forward_backward_check);
   v.Field("forward_backward_threshold_px", &o->forward_backward_threshold_px);
-  v.Field("predict_flow", &o->predict_flow);
 }
 
 template <typename V>
@@ -223,6 +222,9 @@ void Visit(V& v, GlobalBaOptions* o) {
   v.Field("straight_max_rotation_deg", &o->straight_max_rotation_deg);
   v.Field("straight_window_keyframes", &o->straight_window_keyframes);
   v.Field("straight_overlap_min_landmarks", &o->straight_overlap_min_landmarks);
+  v.Field("refine_extrinsics", &o->refine_extrinsics);
+  v.Field("extrinsic_rotation_sigma_deg", &o->extrinsic_rotation_sigma_deg);
+  v.Field("extrinsic_translation_sigma_m", &o->extrinsic_translation_sigma_m);
 }
 
 template <typename V>

@@ -101,9 +101,6 @@ struct CameraTracker::Impl {
   std::vector<cv::Mat> prev_pyramid;
   std::vector<TrackedFeature> prev_features;
   cv::Mat prev_descriptors;
-  // Image motion of each of prev_features from the frame before (zero for
-  // a feature first seen there): LK's starting guess (lk.predict_flow).
-  std::vector<cv::Point2f> prev_flow;
 
   bool Usable(const cv::Point2f& p) const {
     const float b = static_cast<float>(border_px);
@@ -176,7 +173,6 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
     prev_pyramid.clear();
     prev_features.clear();
     prev_descriptors = cv::Mat();
-    prev_flow.clear();
     return result;
   }
   if (input.type() != CV_8UC1 || input.cols != camera.width || input.rows != camera.height) {
@@ -207,10 +203,8 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   RejectByRansac(&kept, &kept_pixels, &stats);
   stats.seconds_ransac = SecondsSince(start);
 
-  std::vector<cv::Point2f> flow;
   for (size_t k = 0; k < kept.size(); ++k) {
     TrackedFeature f = prev_features[static_cast<size_t>(kept[k])];
-    flow.push_back(kept_pixels[k] - cv::Point2f(f.pixel.x(), f.pixel.y()));
     f.pixel = Eigen::Vector2f(kept_pixels[k].x, kept_pixels[k].y);
     ++f.track_length;
     result.features.push_back(f);
@@ -234,8 +228,6 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   prev_pyramid = std::move(pyramid);
   prev_features = result.features;
   prev_descriptors = result.descriptors;
-  flow.resize(result.features.size(), cv::Point2f(0.0f, 0.0f));
-  prev_flow = std::move(flow);
   return result;
 }
 
@@ -245,27 +237,17 @@ void CameraTracker::Impl::TrackLk(const std::vector<cv::Mat>& pyramid, std::vect
   if (!prev_features.empty() && !prev_pyramid.empty()) {
     std::vector<cv::Point2f> prev_pts, cur_pts;
     for (const TrackedFeature& f : prev_features) prev_pts.emplace_back(f.pixel.x(), f.pixel.y());
-    const bool predict = options.lk.predict_flow && prev_flow.size() == prev_pts.size();
-    const int flags = predict ? cv::OPTFLOW_USE_INITIAL_FLOW : 0;
-    if (predict) {
-      for (size_t i = 0; i < prev_pts.size(); ++i) cur_pts.push_back(prev_pts[i] + prev_flow[i]);
-    }
     const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
                                     options.lk.max_iterations, 0.001);
     std::vector<uint8_t> status;
     std::vector<float> error;
     cv::calcOpticalFlowPyrLK(prev_pyramid, pyramid, prev_pts, cur_pts, status, error, window,
-                             options.lk.pyramid_levels, criteria, flags);
+                             options.lk.pyramid_levels, criteria);
     std::vector<uint8_t> back_status(prev_pts.size(), 1);
     std::vector<cv::Point2f> back_pts;
     if (options.lk.forward_backward_check) {
-      // The way back starts from the same prediction, reversed: the check
-      // is as hard as the forward search, never handed the answer.
-      if (predict) {
-        for (size_t i = 0; i < prev_pts.size(); ++i) back_pts.push_back(cur_pts[i] - prev_flow[i]);
-      }
       cv::calcOpticalFlowPyrLK(pyramid, prev_pyramid, cur_pts, back_pts, back_status, error, window,
-                               options.lk.pyramid_levels, criteria, flags);
+                               options.lk.pyramid_levels, criteria);
     }
     const double fb2 = options.lk.forward_backward_threshold_px * options.lk.forward_backward_threshold_px;
     for (size_t i = 0; i < prev_pts.size(); ++i) {

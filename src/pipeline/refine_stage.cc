@@ -118,6 +118,7 @@ RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, con
     return outcome;
   }
   outcome.applied = true;
+  outcome.extrinsics_refined = options.refine_extrinsics;
   outcome.before.poses = odometry->poses;
   outcome.before.keyframes = odometry->keyframes;
 
@@ -170,6 +171,13 @@ RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, con
            ba.constraints_used, " loop constraint(s), ",
            ba.solves, " solve(s), ", ba.iterations, " iterations, rms error ", FormatFixed(ba.rms_error_px_before, 3),
            " -> ", FormatFixed(ba.rms_error_px_after, 3), " px, ", FormatFixed(ba.seconds, 2), " s");
+  if (outcome.extrinsics_refined) {
+    for (size_t c = 0; c < rig.cameras.size() && c < ba.cam_from_rig.size(); ++c) {
+      MCVO_LOG(kInfo, "run: extrinsics of ", rig.cameras[c].name, c == 0 ? " (reference, fixed)" : "", ": moved ",
+               FormatFixed(ba.extrinsic_rotation_change_deg[c], 4), " deg, ",
+               FormatFixed(1000.0 * ba.extrinsic_translation_change_m[c], 2), " mm");
+    }
+  }
   return outcome;
 }
 

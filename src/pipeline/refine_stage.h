@@ -15,6 +15,7 @@ namespace mcvo::pipeline_internal {
 
 struct RefineOutcome {
   bool applied = false;  // the bundle adjustment ran and its result is used
+  bool extrinsics_refined = false;  // applied with options.refine_extrinsics: ba.cam_from_rig is the new rig
   GlobalBaResult ba;     // ba.map: the refined map (when applied)
   LandmarkFusionResult fusion;  // the loops' landmarks fused before it (options.fuse_loop_landmarks)
   OdometryBeforeLoops before;  // poses and keyframes as they were before it

@@ -269,7 +269,16 @@ RunSummary RunPipeline(const RunRequest& request) {
   // Outputs, then the finished folder moved into place.
   pipeline_internal::RunOutputsInput outputs;
   outputs.request = &request;
-  outputs.index = &posed;
+  // Refined extrinsics (refine.refine_extrinsics): every output uses the
+  // refined rig (rig_refined.json, the COLMAP model's cameras).
+  std::optional<DatasetIndex> refined_rig_index;
+  if (refine.extrinsics_refined) {
+    refined_rig_index = posed;
+    for (size_t c = 0; c < refined_rig_index->rig.cameras.size() && c < refine.ba.cam_from_rig.size(); ++c) {
+      refined_rig_index->rig.cameras[c].cam_from_rig = refine.ba.cam_from_rig[c];
+    }
+  }
+  outputs.index = refined_rig_index ? &*refined_rig_index : &posed;
   outputs.opened = &index;
   outputs.threads = threads;
   outputs.total_frames = total_frames;

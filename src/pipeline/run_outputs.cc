@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "mcvo/io/rig_io.h"
 #include "mcvo/colmap/colmap_model.h"
 #include "mcvo/config/config.h"
 #include "mcvo/eval/report.h"
@@ -306,6 +307,19 @@ Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Ev
   json["rms_error_px_before"] = ba.rms_error_px_before;
   json["rms_error_px_after"] = ba.rms_error_px_after;
   json["solver_message"] = ba.message;
+  if (refine.extrinsics_refined) {
+    const Rig& rig = in.index->rig;  // the refined rig
+    Json cameras = Json::array();
+    for (size_t c = 0; c < rig.cameras.size() && c < ba.cam_from_rig.size(); ++c) {
+      Json camera;
+      camera["camera"] = rig.cameras[c].name;
+      camera["reference"] = c == 0;
+      camera["rotation_change_deg"] = ba.extrinsic_rotation_change_deg[c];
+      camera["translation_change_m"] = ba.extrinsic_translation_change_m[c];
+      cameras.push_back(camera);
+    }
+    json["extrinsics"] = cameras;
+  }
   const std::optional<EvalResult>& before = evals.loop ? evals.loop : evals.odometry;
   if (before) {
     json["ate_rmse_m_before"] = before->ate_translation_m.rmse;
@@ -494,6 +508,7 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
                     TrajectoryFormat::kTum);
   }
   if (in.loops != nullptr) WriteFileAtomic(dir / "loops.csv", LoopsCsv(in.loops->attempts));
+  if (in.refine != nullptr && in.refine->extrinsics_refined) WriteRig(dir / "rig_refined.json", rig);
   WriteFileAtomic(dir / "scale_log.csv", ScaleLogCsv(rig, odometry.scale_log));
   WriteFileAtomic(dir / "frame_stats.csv", FrameStatsCsv(rig, odometry));
   WriteFileAtomic(dir / "timing.csv", TimingCsv(odometry));

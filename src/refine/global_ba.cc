@@ -80,6 +80,37 @@ class StraightScaleCost {
   double log_ab_, log_bc_, weight_;
 };
 
+// Prior of a refined extrinsic (global_ba.h "Extrinsics"). Parameter block:
+// cam_from_rig[7]. Residual (6): 2 vec(q0^-1 q) / sigma_r (the short way
+// round) and (c - c0) / sigma_t, c = -R^T t the camera centre in the rig.
+class ExtrinsicPriorCost {
+ public:
+  ExtrinsicPriorCost(const Rigid3d& cam_from_rig, double sigma_rad, double sigma_m)
+      : rotation_(cam_from_rig.rotation),
+        centre_(cam_from_rig.Inverse().translation),
+        rotation_weight_(1.0 / sigma_rad),
+        translation_weight_(1.0 / sigma_m) {}
+
+  template <typename T>
+  bool operator()(const T* extrinsic, T* residual) const {
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t(extrinsic);
+    const Eigen::Map<const Eigen::Quaternion<T>> q(extrinsic + 3);
+    const Eigen::Quaternion<T> error = rotation_.cast<T>().conjugate() * q;
+    const T sign = error.w() < T(0) ? T(-1) : T(1);
+    const Eigen::Matrix<T, 3, 1> centre = -(q.conjugate() * t);
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = T(2.0 * rotation_weight_) * sign * error.vec()[i];
+      residual[3 + i] = T(translation_weight_) * (centre[i] - T(centre_[i]));
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Quaterniond rotation_;
+  Eigen::Vector3d centre_;
+  double rotation_weight_, translation_weight_;
+};
+
 struct Observation {
   int keyframe = 0;
   int index = 0;     // in the keyframe's observations
@@ -113,6 +144,8 @@ class GlobalProblem {
     const std::vector<MapKeyframe>& keyframes = map.keyframes;
     poses_.resize(keyframes.size());
     for (size_t k = 0; k < keyframes.size(); ++k) PoseToParams(keyframes[k].world_from_rig, poses_[k].data());
+    extrinsics_.resize(cam_from_rig_.size());
+    for (size_t c = 0; c < cam_from_rig_.size(); ++c) PoseToParams(cam_from_rig_[c], extrinsics_[c].data());
     for (const MapLandmark& landmark : map.landmarks) {
       if (!landmark_index_.emplace(landmark.id, static_cast<int>(landmark_ids_.size())).second) continue;
       landmark_ids_.push_back(landmark.id);
@@ -184,10 +217,18 @@ class GlobalProblem {
     }
     for (const Observation& o : observations_) {
       if (!Counts(o)) continue;
-      problem.AddResidualBlock(
-          NewWorldPointFactor(o.bearing, cam_from_rig_[static_cast<size_t>(o.camera)], sqrt_information_),
-          loss.get(), poses_[static_cast<size_t>(o.keyframe)].data(), points_[static_cast<size_t>(o.landmark)].data());
+      double* pose = poses_[static_cast<size_t>(o.keyframe)].data();
+      double* point = points_[static_cast<size_t>(o.landmark)].data();
+      if (options_.refine_extrinsics) {
+        problem.AddResidualBlock(NewWorldPointExtrinsicFactor(o.bearing, sqrt_information_), loss.get(), pose,
+                                 extrinsics_[static_cast<size_t>(o.camera)].data(), point);
+      } else {
+        problem.AddResidualBlock(
+            NewWorldPointFactor(o.bearing, cam_from_rig_[static_cast<size_t>(o.camera)], sqrt_information_),
+            loss.get(), pose, point);
+      }
     }
+    if (options_.refine_extrinsics) AddExtrinsicPriors(&problem, manifold.get());
     std::vector<std::unique_ptr<ceres::LossFunction>> constraint_losses;
     *constraints_used = 0;
     for (const GlobalBaPoseConstraint& c : constraints_) {
@@ -211,6 +252,9 @@ class GlobalProblem {
     for (size_t k = 0; k < poses_.size(); ++k) {
       if (keyframe_used_[k]) ordering->AddElementToGroup(poses_[k].data(), 1);
     }
+    for (std::array<double, kPoseParamSize>& extrinsic : extrinsics_) {
+      if (problem.HasParameterBlock(extrinsic.data())) ordering->AddElementToGroup(extrinsic.data(), 1);
+    }
     ceres::Solver::Options solver_options;
     solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
     solver_options.sparse_linear_algebra_library_type =
@@ -233,7 +277,7 @@ class GlobalProblem {
     const Rigid3d world_from_rig = PoseFromParams(poses_[static_cast<size_t>(o.keyframe)].data());
     const std::array<double, 3>& p = points_[static_cast<size_t>(o.landmark)];
     const Eigen::Vector3d point_cam =
-        cam_from_rig_[static_cast<size_t>(o.camera)] * (world_from_rig.Inverse() * Eigen::Vector3d(p[0], p[1], p[2]));
+        CamFromRig(o.camera) * (world_from_rig.Inverse() * Eigen::Vector3d(p[0], p[1], p[2]));
     const double norm = point_cam.norm();
     if (!(norm > 1e-12)) return -1.0;
     const Eigen::Vector3d u = point_cam / norm;
@@ -298,6 +342,17 @@ class GlobalProblem {
       landmarks.push_back(out);
     }
     map.landmarks = std::move(landmarks);
+    result->cam_from_rig.clear();
+    result->extrinsic_rotation_change_deg.clear();
+    result->extrinsic_translation_change_m.clear();
+    for (size_t c = 0; c < extrinsics_.size(); ++c) {
+      const Rigid3d refined = CamFromRig(static_cast<int>(c));
+      result->cam_from_rig.push_back(refined);
+      result->extrinsic_rotation_change_deg.push_back(refined.rotation.angularDistance(cam_from_rig_[c].rotation) *
+                                                      180.0 / M_PI);
+      result->extrinsic_translation_change_m.push_back(
+          (refined.Inverse().translation - cam_from_rig_[c].Inverse().translation).norm());
+    }
     result->keyframes_refined = static_cast<int>(std::count(keyframe_used_.begin(), keyframe_used_.end(), true));
     result->landmarks_refined = static_cast<int>(std::count(landmark_used_.begin(), landmark_used_.end(), true));
   }
@@ -336,6 +391,30 @@ class GlobalProblem {
                                                                 kPoseParamSize>(new StraightScaleCost(ab, bc, sigma)),
                                 nullptr, poses_[a].data(), poses_[b].data(), poses_[c].data());
       ++straight_scale_residuals_;
+    }
+  }
+
+  // Camera c's cam_from_rig as it stands (the calibration unless refined).
+  Rigid3d CamFromRig(int c) const {
+    if (!options_.refine_extrinsics) return cam_from_rig_[static_cast<size_t>(c)];
+    return PoseFromParams(extrinsics_[static_cast<size_t>(c)].data());
+  }
+
+  // global_ba.h "Extrinsics": the prior of every camera in the problem.
+  void AddExtrinsicPriors(ceres::Problem* problem, ceres::Manifold* manifold) {
+    const double sigma_rad = options_.extrinsic_rotation_sigma_deg * M_PI / 180.0;
+    for (size_t c = 0; c < extrinsics_.size(); ++c) {
+      double* extrinsic = extrinsics_[c].data();
+      if (!problem->HasParameterBlock(extrinsic)) continue;  // no observation of this camera
+      problem->SetManifold(extrinsic, manifold);
+      if (c == 0) {  // the reference camera defines the rig frame
+        problem->SetParameterBlockConstant(extrinsic);
+        continue;
+      }
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<ExtrinsicPriorCost, 6, kPoseParamSize>(
+                                    new ExtrinsicPriorCost(cam_from_rig_[c], sigma_rad,
+                                                           options_.extrinsic_translation_sigma_m)),
+                                nullptr, extrinsic);
     }
   }
 
@@ -401,6 +480,7 @@ class GlobalProblem {
   const std::vector<Rigid3d> cam_from_rig_;
   const double sqrt_information_;
   std::vector<std::array<double, kPoseParamSize>> poses_;
+  std::vector<std::array<double, kPoseParamSize>> extrinsics_;  // cam_from_rig per camera (refine_extrinsics)
   std::vector<std::array<double, 3>> points_;
   std::vector<int64_t> landmark_ids_;
   std::map<int64_t, int> landmark_index_;  // id -> index into points_ / landmark_ids_
@@ -426,6 +506,8 @@ void GlobalBaOptions::Check() const {
   CheckPositive("/refine/straight_max_rotation_deg", straight_max_rotation_deg);
   CheckAtLeast("/refine/straight_window_keyframes", straight_window_keyframes, 1);
   CheckAtLeast("/refine/straight_overlap_min_landmarks", straight_overlap_min_landmarks, 0);
+  CheckPositive("/refine/extrinsic_rotation_sigma_deg", extrinsic_rotation_sigma_deg);
+  CheckPositive("/refine/extrinsic_translation_sigma_m", extrinsic_translation_sigma_m);
 }
 
 GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, bool scale_free,
@@ -439,6 +521,9 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
   GlobalBaResult result;
   result.map = map;
   result.refined.assign(map.keyframes.size(), false);
+  result.cam_from_rig = rig.CamFromRig();
+  result.extrinsic_rotation_change_deg.assign(result.cam_from_rig.size(), 0.0);
+  result.extrinsic_translation_change_m.assign(result.cam_from_rig.size(), 0.0);
 
   GlobalProblem problem(rig, map, scale_free, options, constraints);
   if (!problem.SelectActive()) {

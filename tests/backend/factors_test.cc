@@ -503,6 +503,38 @@ TEST(WorldPointFactor, ZeroAtTruthAndAnalyticJacobiansMatchAutoDiff) {
   EXPECT_LT(worst_jacobian, 1e-9);
 }
 
+// The extrinsic as a parameter block (refine.refine_extrinsics) gives the
+// fixed-extrinsic factor's residual and, for the pose and the point, its
+// Jacobians.
+TEST(WorldPointFactor, ExtrinsicBlockMatchesTheFixedExtrinsic) {
+  std::mt19937 rng(34);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  double worst_residual = 0.0, worst_jacobian = 0.0;
+  for (int i = 0; i < 500; ++i) {
+    const Rigid3d world_from_rig(test::RandomRotation(&rng, M_PI), 20.0 * uniform(rng) * test::RandomUnit(&rng));
+    const Rigid3d cam_from_rig(test::RandomRotation(&rng, M_PI), 1.5 * uniform(rng) * test::RandomUnit(&rng));
+    const Eigen::Vector3d in_cam = (0.3 + 60.0 * uniform(rng)) * test::RandomUnit(&rng);
+    Eigen::Vector3d point = world_from_rig * (cam_from_rig.Inverse() * in_cam);
+    const Eigen::Vector3d axis = in_cam.normalized().cross(test::RandomUnit(&rng)).normalized();
+    const Eigen::Vector3d observed = Eigen::AngleAxisd(0.3 * uniform(rng), axis) * in_cam.normalized();
+    double pose[kPoseParamSize], extrinsic[kPoseParamSize];
+    PoseToParams(world_from_rig, pose);
+    PoseToParams(cam_from_rig, extrinsic);
+    std::unique_ptr<ceres::CostFunction> fixed(NewWorldPointFactor(observed, cam_from_rig, kSqrtInfo));
+    std::unique_ptr<ceres::CostFunction> block(NewWorldPointExtrinsicFactor(observed, kSqrtInfo));
+    const Evaluation ef = EvaluateWithJacobians(*fixed, {pose, point.data()});
+    const Evaluation eb = EvaluateWithJacobians(*block, {pose, extrinsic, point.data()});
+    ASSERT_EQ(eb.jacobians.size(), 3u);
+    worst_residual = std::max(worst_residual, (ef.residual - eb.residual).norm() / std::max(ef.residual.norm(), 1e-3));
+    worst_jacobian = std::max({worst_jacobian, RelativeDifference(ef.jacobians[0], eb.jacobians[0]),
+                               RelativeDifference(ef.jacobians[1], eb.jacobians[2])});
+    ASSERT_TRUE(eb.jacobians[1].allFinite());
+    EXPECT_GT(eb.jacobians[1].norm(), 0.0);
+  }
+  EXPECT_LT(worst_residual, 1e-9);
+  EXPECT_LT(worst_jacobian, 1e-9);
+}
+
 TEST(ReprojectionFactor, ConstExtrinsicsMatchExtrinsicBlocks) {
   // The constant-extrinsic variants against the AutoDiff factors with
   // extrinsic blocks: same residual, same Jacobians of the shared blocks.

@@ -342,6 +342,54 @@ TEST(GlobalBaTest, NothingSeenTwiceIsNotRunAndSaysWhy) {
   EXPECT_EQ(result.map.keyframes.size(), scene.map.keyframes.size());
 }
 
+// A calibration error: camera 1 of the 4-camera KITTI-360 rig given to the
+// BA turned by 0.4 deg and moved by 3 cm from where the observations were
+// made. With the extrinsics fixed the error stays in the solution; refined
+// (refine_extrinsics, prior 0.5 deg / 2 cm around the wrong calibration)
+// the BA moves camera 1 most of the way back; camera 0, the reference,
+// stays, and the other two barely move.
+TEST(GlobalBaTest, RefinedExtrinsicsRecoverACalibrationError) {
+  const Scene scene = MakeScene("kitti360", 0.3, 1.0, 3, 16);
+  Rig wrong = scene.rig;
+  const Rigid3d truth_1 = scene.rig.cameras[1].cam_from_rig;
+  const Rigid3d error(Eigen::Quaterniond(Eigen::AngleAxisd(0.4 * M_PI / 180.0, Eigen::Vector3d(0.6, 0.8, 0.0))),
+                      Eigen::Vector3d(0.03, 0.0, 0.0));
+  wrong.cameras[1].cam_from_rig = error * truth_1;
+  auto rotation_error_deg = [&](const Rigid3d& cam_from_rig) {
+    return cam_from_rig.rotation.angularDistance(truth_1.rotation) * 180.0 / M_PI;
+  };
+  auto centre_error_m = [&](const Rigid3d& cam_from_rig) {
+    return (cam_from_rig.Inverse().translation - truth_1.Inverse().translation).norm();
+  };
+  ASSERT_NEAR(rotation_error_deg(wrong.cameras[1].cam_from_rig), 0.4, 1e-9);
+  const double centre_error_before = centre_error_m(wrong.cameras[1].cam_from_rig);
+
+  const GlobalBaResult fixed = RunGlobalBundleAdjustment(wrong, scene.map, false, GlobalBaOptions());
+  GlobalBaOptions options;
+  options.refine_extrinsics = true;
+  const GlobalBaResult refined = RunGlobalBundleAdjustment(wrong, scene.map, false, options);
+  ASSERT_TRUE(fixed.ran && refined.ran) << fixed.message << " / " << refined.message;
+  ASSERT_EQ(refined.cam_from_rig.size(), 4u);
+  std::printf("camera 1: rotation error 0.400 -> %.3f deg, centre error %.4f -> %.4f m; rms %.3f px fixed, %.3f px "
+              "refined; changes %.3f / %.3f / %.3f / %.3f deg\n",
+              rotation_error_deg(refined.cam_from_rig[1]), centre_error_before,
+              centre_error_m(refined.cam_from_rig[1]), fixed.rms_error_px_after, refined.rms_error_px_after,
+              refined.extrinsic_rotation_change_deg[0], refined.extrinsic_rotation_change_deg[1],
+              refined.extrinsic_rotation_change_deg[2], refined.extrinsic_rotation_change_deg[3]);
+  // Fixed: the input's extrinsics come back unchanged.
+  EXPECT_EQ(fixed.cam_from_rig[1].translation, wrong.cameras[1].cam_from_rig.translation);
+  EXPECT_EQ(fixed.extrinsic_rotation_change_deg[1], 0.0);
+  // Refined: camera 1 most of the way back, the observations explained better.
+  EXPECT_LT(rotation_error_deg(refined.cam_from_rig[1]), 0.02);
+  EXPECT_LT(centre_error_m(refined.cam_from_rig[1]), 0.01);
+  EXPECT_GT(refined.extrinsic_rotation_change_deg[1], 0.3);
+  EXPECT_EQ(refined.extrinsic_rotation_change_deg[0], 0.0);
+  EXPECT_EQ(refined.extrinsic_translation_change_m[0], 0.0);
+  for (int c : {2, 3}) EXPECT_LT(refined.extrinsic_rotation_change_deg[static_cast<size_t>(c)], 0.05) << c;
+  EXPECT_LT(refined.rms_error_px_after, 0.8 * fixed.rms_error_px_after);
+  EXPECT_LE(MaxPositionError(refined.map, scene.truth), MaxPositionError(fixed.map, scene.truth));
+}
+
 TEST(GlobalBaOptionsTest, CheckNamesTheField) {
   GlobalBaOptions options;
   options.min_observations = 1;

@@ -136,6 +136,10 @@ ceres::CostFunction* NewWorldPointFactor(const Eigen::Vector3d& observed_bearing
                                          double sqrt_information);
 ceres::CostFunction* NewWorldPointFactorAutoDiff(const Eigen::Vector3d& observed_bearing,
                                                  const Rigid3d& cam_from_rig, double sqrt_information);
+// The same residual with the extrinsic refined: parameter blocks
+// world_from_rig[7], cam_from_rig[7] (the same layout and manifold as a
+// pose), point[3]. Automatic differentiation (an optional path).
+ceres::CostFunction* NewWorldPointExtrinsicFactor(const Eigen::Vector3d& observed_bearing, double sqrt_information);
 
 // The robust loss of a bearing residual in units of its sigma: Huber or
 // Cauchy at `scale`, or none (nullptr) for kTrivial. The window BA and the

@@ -41,12 +41,6 @@ struct LkOptions {
   int max_iterations = 30;             // per level
   bool forward_backward_check = true;  // track back and reject points that do not return
   double forward_backward_threshold_px = 0.5;
-  // LK starts each track where its last image velocity predicts (the
-  // previous frame's flow carried forward; a new feature starts at rest).
-  // Ground and walls close to the camera move tens of pixels per frame;
-  // where their texture is fine, the coarse pyramid levels hold no
-  // structure to find that motion from rest (docs/config.md).
-  bool predict_flow = false;
 };
 
 struct SuperPointOptions {

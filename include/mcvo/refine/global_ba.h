@@ -11,8 +11,8 @@
 //   p = cam_from_rig_c * rig_from_world_k * X,
 //   r = sqrt_information * TangentBasis(b) (p / |p| - b),
 // sqrt_information = virtual_focal_px / reprojection_sigma_px, under a
-// robust loss. Extrinsics and intrinsics are fixed (the calibration is
-// given). Solved by Ceres with the sparse Schur complement (landmarks
+// robust loss. Intrinsics are fixed (the calibration is given); so are the
+// extrinsics unless refine_extrinsics ("Extrinsics" below). Solved by Ceres with the sparse Schur complement (landmarks
 // eliminated first, SuiteSparse's CHOLMOD on the reduced camera system) on
 // one thread: Ceres' multi-threaded Schur reduction sums in an order that
 // depends on scheduling, and the result must be byte-identical at any
@@ -55,6 +55,19 @@
 // trade: where the images are clean and the input's profile is wrong, the
 // free BA would have corrected it (tests/refine/global_ba_test.cc keeps
 // half of a 4 % step that the free BA removes). Spans under 1 cm are skipped.
+//
+// Extrinsics (refine_extrinsics, off by default): the rig's first camera is
+// the reference and keeps its calibration (the images cannot tell a common
+// motion of every camera from a motion of the rig: as COLMAP's and
+// Kalibr's reference sensor, it defines the rig frame). Every other
+// camera's cam_from_rig becomes a parameter block shared by all keyframes,
+// with a prior that holds it to the given calibration: the rotation error
+// 2 vec(q0^-1 q) over extrinsic_rotation_sigma_deg and the camera centre's
+// displacement in the rig over extrinsic_translation_sigma_m. The
+// observations fix the cameras' rotations relative to the reference well,
+// and their positions where views overlap or the rig turns; on a straight
+// road without overlap the centres stay near the calibration, held by the
+// prior (which also keeps the baselines' length, the metric scale).
 //
 // Outliers: after a solve, observations whose error exceeds
 // outlier_threshold_px (at virtual_focal_px) or whose point lies behind the
@@ -104,6 +117,11 @@ struct GlobalBaOptions {
   // Before the BA, fuse the landmarks that accepted loops saw again
   // (refine/landmark_fusion.h); used by `mcvo run`'s refinement stage.
   bool fuse_loop_landmarks = true;
+  // "Extrinsics" above: refine every camera's cam_from_rig with a prior of
+  // these sigmas around the calibration.
+  bool refine_extrinsics = false;
+  double extrinsic_rotation_sigma_deg = 0.5;
+  double extrinsic_translation_sigma_m = 0.02;
 
   // Throws InputError naming the field by its config path ("/refine/...").
   void Check() const;
@@ -142,6 +160,12 @@ struct GlobalBaResult {
   double final_cost = 0.0;           // after the last solve
   double rms_error_px_before = 0.0;  // over the first solve's observations, at virtual_focal_px
   double rms_error_px_after = 0.0;   // over the last solve's observations
+  // Per camera of the rig: cam_from_rig after the BA (the input's unless
+  // refine_extrinsics), and how far it moved: rotation angle (deg) and the
+  // camera centre's displacement in the rig (m).
+  std::vector<Rigid3d> cam_from_rig;
+  std::vector<double> extrinsic_rotation_change_deg;
+  std::vector<double> extrinsic_translation_change_m;
   double seconds = 0.0;              // wall clock (not deterministic)
 };
 
