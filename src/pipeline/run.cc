@@ -71,6 +71,19 @@ DatasetIndex MonocularIndex(DatasetIndex index) {
 }
 
 // The dataset as seen by one of its cameras alone (the monocular fallback).
+// With refined extrinsics (refine.refine_extrinsics) every output uses the
+// refined rig (rig_refined.json, the COLMAP model's cameras): `posed` with
+// them; nothing otherwise.
+std::optional<DatasetIndex> IndexWithRefinedRig(const DatasetIndex& posed,
+                                                const pipeline_internal::RefineOutcome& refine) {
+  if (!refine.extrinsics_refined) return std::nullopt;
+  DatasetIndex index = posed;
+  for (size_t c = 0; c < index.rig.cameras.size() && c < refine.ba.cam_from_rig.size(); ++c) {
+    index.rig.cameras[c].cam_from_rig = refine.ba.cam_from_rig[c];
+  }
+  return index;
+}
+
 DatasetIndex CameraOfIndex(const DatasetIndex& index, int camera) {
   DatasetIndex out = index;
   const size_t c = static_cast<size_t>(camera);
@@ -269,15 +282,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   // Outputs, then the finished folder moved into place.
   pipeline_internal::RunOutputsInput outputs;
   outputs.request = &request;
-  // Refined extrinsics (refine.refine_extrinsics): every output uses the
-  // refined rig (rig_refined.json, the COLMAP model's cameras).
-  std::optional<DatasetIndex> refined_rig_index;
-  if (refine.extrinsics_refined) {
-    refined_rig_index = posed;
-    for (size_t c = 0; c < refined_rig_index->rig.cameras.size() && c < refine.ba.cam_from_rig.size(); ++c) {
-      refined_rig_index->rig.cameras[c].cam_from_rig = refine.ba.cam_from_rig[c];
-    }
-  }
+  const std::optional<DatasetIndex> refined_rig_index = IndexWithRefinedRig(posed, refine);
   outputs.index = refined_rig_index ? &*refined_rig_index : &posed;
   outputs.opened = &index;
   outputs.threads = threads;
