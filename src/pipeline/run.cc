@@ -186,9 +186,8 @@ RunSummary RunPipeline(const RunRequest& request) {
                        "\" is not in the rig of ", index.root.string());
     }
   }
-  // Frame source and vocabulary, set up before anything is decoded so that
-  // a bad model, a mismatched track file or a bad vocabulary is reported at
-  // start-up.
+  // Frame source and vocabulary, set up before anything is decoded so that a
+  // bad model, a mismatched track file or a bad vocabulary fail at start-up.
   FrameSource source(index, options.frontend, request.tracks, threads);
   const std::filesystem::path vocabulary_path = RunVocabularyPath(options);
   std::optional<Vocabulary> vocabulary;
@@ -247,8 +246,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   }
   const double odometry_seconds = SecondsSince(run_start);
 
-  // Loop closure, then every pose and landmark moved with its keyframe's
-  // correction.
+  // Loop closure, then every pose and landmark moved with its keyframe's correction.
   pipeline_internal::LoopOutcome loops;
   pipeline_internal::OdometryBeforeLoops before_loops;
   if (vocabulary) {
