@@ -67,14 +67,7 @@ struct BearingResidualCore {
       p = ApplyInverse(pose_obs, Apply(pose_anchor, p, rho), rho);
     }
     p = ApplyInverse(rig_from_cam_obs, p, rho);
-    const T norm = p.norm();
-    if (!(norm > T(0))) return false;
-    const Eigen::Matrix<T, 3, 1> u = p / norm;
-    const Eigen::Matrix<T, 3, 1> error = u - observed_bearing.cast<T>();
-    const Eigen::Matrix<T, 2, 1> r = basis.cast<T>() * error;
-    residuals[0] = T(sqrt_information) * r[0];
-    residuals[1] = T(sqrt_information) * r[1];
-    return true;
+    return TangentResidual(p, observed_bearing, basis, sqrt_information, residuals);
   }
 };
 
@@ -538,18 +531,6 @@ class WorldPointFactor final : public ceres::SizedCostFunction<2, kPoseParamSize
   const double sqrt_information_;
 };
 
-// s B(b) (p/|p| - b) of a point p in the camera; false at p = 0.
-template <typename T>
-bool WorldPointResidual(const Eigen::Matrix<T, 3, 1>& p, const Eigen::Vector3d& bearing, const Matrix23& basis,
-                        double sqrt_information, T* residual) {
-  const T norm = p.norm();
-  if (!(norm > T(0))) return false;
-  const Eigen::Matrix<T, 2, 1> r = basis.cast<T>() * (p / norm - bearing.cast<T>());
-  residual[0] = T(sqrt_information) * r[0];
-  residual[1] = T(sqrt_information) * r[1];
-  return true;
-}
-
 struct WorldPointFunctor {
   Eigen::Vector3d bearing;
   Matrix23 basis;
@@ -563,7 +544,7 @@ struct WorldPointFunctor {
     const Eigen::Map<const Eigen::Quaternion<T>> q(pose + 3);
     const Eigen::Matrix<T, 3, 1> p =
         cam_rotation.cast<T>() * (q.toRotationMatrix().transpose() * (x - t)) + cam_translation.cast<T>();
-    return WorldPointResidual(p, bearing, basis, sqrt_information, residual);
+    return TangentResidual(p, bearing, basis, sqrt_information, residual);
   }
 };
 
@@ -577,7 +558,7 @@ struct WorldPointExtrinsicFunctor {
     const Eigen::Map<const Eigen::Matrix<T, 3, 1>> t(pose), x(point), tc(extrinsic);
     const Eigen::Map<const Eigen::Quaternion<T>> q(pose + 3), qc(extrinsic + 3);
     const Eigen::Matrix<T, 3, 1> p = qc * (q.conjugate() * (x - t)) + tc;
-    return WorldPointResidual(p, bearing, basis, sqrt_information, residual);
+    return TangentResidual(p, bearing, basis, sqrt_information, residual);
   }
 };
 

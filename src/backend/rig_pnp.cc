@@ -37,12 +37,7 @@ struct PnpResidual {
     const Eigen::Matrix<T, 3, 1> point_in_rig = q.conjugate() * (point_in_world.cast<T>() - t);
     const Eigen::Matrix<T, 3, 1> point_in_cam =
         cam_from_rig_rotation.cast<T>() * point_in_rig + cam_from_rig_translation.cast<T>();
-    const T norm = point_in_cam.norm();
-    if (!(norm > T(0))) return false;
-    const Eigen::Matrix<T, 2, 1> r = basis.cast<T>() * (point_in_cam / norm - bearing.cast<T>());
-    residuals[0] = T(focal) * r[0];
-    residuals[1] = T(focal) * r[1];
-    return true;
+    return TangentResidual(point_in_cam, bearing, basis, focal, residuals);
   }
 };
 

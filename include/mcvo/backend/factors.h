@@ -56,6 +56,21 @@ Rigid3d PoseFromParams(const double* params);
 // construction turns about -z); valid for any unit (or non-zero) bearing.
 Eigen::Matrix<double, 2, 3> TangentBasis(const Eigen::Vector3d& bearing);
 
+// The tangent-plane residual above for a point p in the observing camera:
+// r = sqrt_information * basis (p / |p| - b), basis = TangentBasis(b);
+// false at p = 0. Shared by every bearing factor (automatic differentiation
+// included: T may be a Jet).
+template <typename T>
+bool TangentResidual(const Eigen::Matrix<T, 3, 1>& p, const Eigen::Vector3d& bearing,
+                     const Eigen::Matrix<double, 2, 3>& basis, double sqrt_information, T* residual) {
+  const T norm = p.norm();
+  if (!(norm > T(0))) return false;
+  const Eigen::Matrix<T, 2, 1> r = basis.cast<T>() * (p / norm - bearing.cast<T>());
+  residual[0] = T(sqrt_information) * r[0];
+  residual[1] = T(sqrt_information) * r[1];
+  return true;
+}
+
 // The factories below return cost functions with analytic Jacobians
 // (ceres::SizedCostFunction): Jacobians are with respect to the ambient
 // parameters, as Ceres expects ({tx, ty, tz, qx, qy, qz, qw} for pose and
