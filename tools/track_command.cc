@@ -60,7 +60,7 @@ struct RunTotals {
   std::map<uint64_t, int> track_lengths;
   // Seconds per stage, summed over frames (and over cameras for the stages
   // that run per camera).
-  double decode_wait = 0.0, pyramid = 0.0, lk = 0.0, ransac = 0.0, detect = 0.0, select = 0.0,
+  double decode_wait = 0.0, pyramid = 0.0, lk = 0.0, ransac = 0.0, anchor = 0.0, detect = 0.0, select = 0.0,
          cross_camera = 0.0, track_wall = 0.0, write = 0.0, total = 0.0;
   int64_t cross_matches = 0;
 
@@ -73,6 +73,7 @@ struct RunTotals {
       pyramid += s.seconds_pyramid;
       lk += s.seconds_lk;
       ransac += s.seconds_ransac;
+      anchor += s.seconds_anchor;
       detect += s.seconds_detect;
       select += s.seconds_select;
       if (s.image_missing) continue;
@@ -133,6 +134,7 @@ void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const st
   seconds["lk"] = t.lk / n;
   seconds["detection"] = t.detect / n;
   seconds["ransac"] = t.ransac / n;
+  seconds["anchor"] = t.anchor / n;
   seconds["selection"] = t.select / n;
   seconds["cross_camera"] = t.cross_camera / n;
   seconds["track_wall"] = t.track_wall / n;

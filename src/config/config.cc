@@ -34,6 +34,19 @@ void Visit(V& v, LkOptions* o) {
 }
 
 template <typename V>
+void Visit(V& v, AnchorOptions* o) {
+  v.Field("enabled", &o->enabled);
+  v.Field("half_size_px", &o->half_size_px);
+  v.Field("weight_sigma_px", &o->weight_sigma_px);
+  v.Field("max_iterations", &o->max_iterations);
+  v.Field("min_zncc", &o->min_zncc);
+  v.Field("max_shift_px", &o->max_shift_px);
+  v.Field("max_warp_change", &o->max_warp_change);
+  v.Field("reanchor_scale", &o->reanchor_scale);
+  v.Field("drop_mismatch", &o->drop_mismatch);
+}
+
+template <typename V>
 void Visit(V& v, SuperPointOptions* o) {
   v.Field("downscale", &o->downscale);
   v.Field("confidence_threshold", &o->confidence_threshold);
@@ -65,6 +78,7 @@ void Visit(V& v, FrontendOptions* o) {
   v.Field("ransac_focal_px", &o->ransac_focal_px);
   v.Section("clahe", &o->clahe);
   v.Section("lk", &o->lk);
+  v.Section("anchor", &o->anchor);
   v.Section("superpoint", &o->superpoint);
   v.Section("cross_camera", &o->cross_camera);
 }

@@ -5,6 +5,9 @@
 //     backward check); points that fail, leave the image border or land on a
 //     mask zero are dropped;
 //  3. RANSAC on the bearings of the survivors (bearing_ransac.h);
+//  3b. with frontend.anchor.enabled, each survivor's position refined by
+//     aligning the patch of the frame it was detected in (patch_aligner.h);
+//     a feature whose patch no longer matches is dropped (lost_anchor);
 //  4. detection where new features are wanted and selection (selection.h);
 //     Shi-Tomasi on an image over frontend.detection_max_megapixels runs on
 //     the pyramid's first level that is not (the level-l pixel x maps to
@@ -33,6 +36,7 @@
 
 #include "classic_detectors.h"
 #include "mcvo/frontend/bearing_ransac.h"
+#include "mcvo/frontend/patch_aligner.h"
 #include "mcvo/frontend/selection.h"
 #include "mcvo/util/error.h"
 
@@ -101,6 +105,10 @@ struct CameraTracker::Impl {
   std::vector<cv::Mat> prev_pyramid;
   std::vector<TrackedFeature> prev_features;
   cv::Mat prev_descriptors;
+  // With options.anchor.enabled: one per prev_features entry (the patch of
+  // the frame the feature was detected in, on the unequalised image).
+  std::vector<PatchAnchor> prev_anchors;
+  PatchAlignOptions align;
 
   bool Usable(const cv::Point2f& p) const {
     const float b = static_cast<float>(border_px);
@@ -120,6 +128,11 @@ struct CameraTracker::Impl {
   // pose; a pixel the model cannot unproject counts as lost by LK.
   void RejectByRansac(std::vector<int>* kept, std::vector<cv::Point2f>* kept_pixels,
                       CameraFrameStats* stats) const;
+  // Anchor check (options.anchor): refines kept_pixels against each
+  // feature's anchor patch in `image`, drops the features whose patch no
+  // longer matches; `anchors` receives the kept features' anchors.
+  void RefineByAnchor(const cv::Mat& image, std::vector<int>* kept, std::vector<cv::Point2f>* kept_pixels,
+                      std::vector<PatchAnchor>* anchors, CameraFrameStats* stats) const;
   // Detection and selection of new features up to max_features.
   void AddNewFeatures(const cv::Mat& image, const std::vector<cv::Mat>& pyramid, CameraFrameResult* result) const;
   // Detections on detection_level, in full-resolution pixels.
@@ -144,6 +157,12 @@ CameraTracker::CameraTracker(const Camera& camera, const cv::Mat& mask, const Fr
     impl_->clahe =
         cv::createCLAHE(options.clahe.clip_limit, cv::Size(options.clahe.tile_grid, options.clahe.tile_grid));
   }
+  impl_->align.half_size_px = options.anchor.half_size_px;
+  impl_->align.weight_sigma_px = options.anchor.weight_sigma_px;
+  impl_->align.max_iterations = options.anchor.max_iterations;
+  impl_->align.min_zncc = options.anchor.min_zncc;
+  impl_->align.max_shift_px = options.anchor.max_shift_px;
+  impl_->align.max_warp_change = options.anchor.max_warp_change;
   impl_->max_features = IsFisheye(camera.model) ? options.max_features_fisheye : options.max_features_pinhole;
   impl_->border_px =
       options.detector == DetectorType::kSuperPoint ? std::max(1, options.superpoint.border_px) : 1;
@@ -173,6 +192,7 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
     prev_pyramid.clear();
     prev_features.clear();
     prev_descriptors = cv::Mat();
+    prev_anchors.clear();
     return result;
   }
   if (input.type() != CV_8UC1 || input.cols != camera.width || input.rows != camera.height) {
@@ -202,6 +222,12 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   start = Clock::now();
   RejectByRansac(&kept, &kept_pixels, &stats);
   stats.seconds_ransac = SecondsSince(start);
+  std::vector<PatchAnchor> anchors;
+  if (options.anchor.enabled) {
+    start = Clock::now();
+    RefineByAnchor(input, &kept, &kept_pixels, &anchors, &stats);
+    stats.seconds_anchor = SecondsSince(start);
+  }
 
   for (size_t k = 0; k < kept.size(); ++k) {
     TrackedFeature f = prev_features[static_cast<size_t>(kept[k])];
@@ -214,6 +240,13 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
 
   // 4. Detection and selection of new features.
   AddNewFeatures(image, pyramid, &result);
+  if (options.anchor.enabled) {
+    start = Clock::now();
+    for (size_t i = anchors.size(); i < result.features.size(); ++i) {
+      anchors.push_back(MakePatchAnchor(input, result.features[i].pixel, align));
+    }
+    stats.seconds_anchor += SecondsSince(start);
+  }
 
   double length_sum = 0.0;
   std::vector<Eigen::Vector2f> pixels;
@@ -228,6 +261,7 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   prev_pyramid = std::move(pyramid);
   prev_features = result.features;
   prev_descriptors = result.descriptors;
+  prev_anchors = std::move(anchors);
   return result;
 }
 
@@ -302,6 +336,51 @@ void CameraTracker::Impl::RejectByRansac(std::vector<int>* kept, std::vector<cv:
     kept->swap(survivors);
     kept_pixels->swap(survivor_pixels);
   }
+}
+
+void CameraTracker::Impl::RefineByAnchor(const cv::Mat& image, std::vector<int>* kept,
+                                         std::vector<cv::Point2f>* kept_pixels, std::vector<PatchAnchor>* anchors,
+                                         CameraFrameStats* stats) const {
+  MCVO_CHECK(prev_anchors.size() == prev_features.size());
+  std::vector<int> survivors;
+  std::vector<cv::Point2f> survivor_pixels;
+  for (size_t k = 0; k < kept->size(); ++k) {
+    const int index = (*kept)[k];
+    PatchAnchor anchor = prev_anchors[static_cast<size_t>(index)];
+    cv::Point2f pixel = (*kept_pixels)[k];
+    // A patch without the texture to align (or cut by the border when the
+    // feature was found) keeps its LK track unchecked, as does one whose
+    // warped patch now leaves the image.
+    if (anchor.valid) {
+      const PatchAlignResult aligned = AlignPatch(anchor, image, Eigen::Vector2f(pixel.x, pixel.y), align);
+      if (aligned.status == PatchAlignStatus::kNoMatch) {
+        if (options.anchor.drop_mismatch) {
+          ++stats->lost_anchor;
+          continue;
+        }
+        // Kept on its LK position with a new template there.
+        anchor = MakePatchAnchor(image, Eigen::Vector2f(pixel.x, pixel.y), align);
+      }
+      if (aligned.status == PatchAlignStatus::kAligned) {
+        const cv::Point2f refined(aligned.pixel.x(), aligned.pixel.y());
+        if (!Usable(refined)) {
+          ++stats->lost_lk;
+          continue;
+        }
+        pixel = refined;
+        anchor.warp = aligned.warp;
+        if (WarpBeyond(aligned.warp, options.anchor.reanchor_scale)) {
+          PatchAnchor fresh = MakePatchAnchor(image, aligned.pixel, align);
+          if (fresh.valid) anchor = std::move(fresh);
+        }
+      }
+    }
+    survivors.push_back(index);
+    survivor_pixels.push_back(pixel);
+    anchors->push_back(std::move(anchor));
+  }
+  kept->swap(survivors);
+  kept_pixels->swap(survivor_pixels);
 }
 
 namespace {

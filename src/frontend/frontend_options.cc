@@ -23,6 +23,13 @@ void FrontendOptions::Check() const {
   CheckAtLeast("/frontend/lk/pyramid_levels", lk.pyramid_levels, 0);
   CheckAtLeast("/frontend/lk/max_iterations", lk.max_iterations, 1);
   CheckPositive("/frontend/lk/forward_backward_threshold_px", lk.forward_backward_threshold_px);
+  CheckAtLeast("/frontend/anchor/half_size_px", anchor.half_size_px, 2);
+  CheckAtLeast("/frontend/anchor/weight_sigma_px", anchor.weight_sigma_px, 0.0);
+  CheckAtLeast("/frontend/anchor/max_iterations", anchor.max_iterations, 1);
+  CheckInRange("/frontend/anchor/min_zncc", anchor.min_zncc, -1.0, 1.0);
+  CheckPositive("/frontend/anchor/max_shift_px", anchor.max_shift_px);
+  CheckAtLeast("/frontend/anchor/max_warp_change", anchor.max_warp_change, 1.0);
+  CheckAtLeast("/frontend/anchor/reanchor_scale", anchor.reanchor_scale, 1.0);
   CheckAtLeast("/frontend/superpoint/downscale", superpoint.downscale, 1);
   CheckInRange("/frontend/superpoint/confidence_threshold", superpoint.confidence_threshold, 0.0, 1.0);
   CheckAtLeast("/frontend/superpoint/nms_radius_px", superpoint.nms_radius_px, 0);

@@ -25,7 +25,7 @@ namespace {
 constexpr std::string_view kMagic = "MCVOTRK1";
 // 2: frames end with the cross-camera block. Version 1 files (no such block)
 // are still read, as frames without cross-camera matches.
-constexpr int kFormatVersion = 2;
+constexpr int kFormatVersion = 3;
 constexpr int kOldestFormatVersion = 1;
 // frame_index of the end record that closes a complete file.
 constexpr int32_t kEndMarker = -1;
@@ -33,8 +33,10 @@ constexpr int32_t kEndMarker = -1;
 constexpr uint32_t kMaxHeaderBytes = 64u << 20;
 constexpr size_t kMaxCameras = 256;
 constexpr int kMaxDescriptorSize = 4096;
-// Bytes of the fixed part of a camera record (docs/track-format.md).
-constexpr size_t kCameraStatsBytes = 6 * 4 + 2 * 8 + 1;
+// Bytes of the fixed part of a camera record (docs/track-format.md); format
+// version 3 adds lost_anchor.
+constexpr size_t kCameraStatsBytesV2 = 6 * 4 + 2 * 8 + 1;
+constexpr size_t kCameraStatsBytes = kCameraStatsBytesV2 + 4;
 constexpr size_t kFeatureFixedBytes = 8 + 3 * 4 + 4;
 constexpr size_t kPairStatsBytes = size_t{10} * 4;
 constexpr size_t kMatchBytes = 1 + 8 + 1 + 2 * 4;
@@ -164,6 +166,7 @@ void TrackFileWriter::Write(const MultiCameraFrame& frame) {
     PutI32(&out, ToI32(s.new_features));
     PutI32(&out, ToI32(s.lost_lk));
     PutI32(&out, ToI32(s.lost_forward_backward));
+    PutI32(&out, ToI32(s.lost_anchor));
     PutI32(&out, ToI32(s.ransac_inliers));
     PutI32(&out, ToI32(s.ransac_outliers));
     PutF64(&out, s.mean_track_length);
@@ -251,6 +254,7 @@ struct TrackFileReader::Impl {
   TrackFileHeader header;
   size_t descriptor_bytes = 0;
   bool cross_camera = false;  // frames have the cross-camera block (version >= 2)
+  bool lost_anchor = false;   // camera blocks have lost_anchor (version >= 3)
   uint32_t frames = 0;
   bool done = false;
   std::string buffer;
@@ -350,6 +354,7 @@ void TrackFileReader::Impl::ParseHeader(const std::string& text) {
     }
     header.format_version = version.get<int>();
     cross_camera = header.format_version >= 2;
+    lost_anchor = header.format_version >= 3;
     header.camera_names = json.at("cameras").get<std::vector<std::string>>();
     header.descriptor_size = json.at("descriptor_size").get<int>();
     const std::string type = json.at("descriptor_type").get<std::string>();
@@ -428,12 +433,13 @@ std::optional<MultiCameraFrame> TrackFileReader::Next() {
   const int descriptor_depth = r.header.descriptor_type;
   frame.cameras.resize(r.header.camera_names.size());
   for (CameraFrameResult& camera : frame.cameras) {
-    ByteCursor c = r.Read(kCameraStatsBytes + 4);
+    ByteCursor c = r.Read((r.lost_anchor ? kCameraStatsBytes : kCameraStatsBytesV2) + 4);
     CameraFrameStats& s = camera.stats;
     s.tracked = c.I32();
     s.new_features = c.I32();
     s.lost_lk = c.I32();
     s.lost_forward_backward = c.I32();
+    if (r.lost_anchor) s.lost_anchor = c.I32();
     s.ransac_inliers = c.I32();
     s.ransac_outliers = c.I32();
     s.mean_track_length = c.F64();

@@ -68,35 +68,36 @@ double Percentile(std::vector<double> values, double q) {
 }
 
 // Every tracked pixel vs the projection of the 3-D point its feature was
-// detected on (the detection pixel's ray cast into the scene).
-TEST(CameraTrackerTest, TracksAgreeWithGroundTruthProjections) {
-  // Full resolution and the default options: the check is on what users run.
-  // Frame-to-frame LK drifts under forward motion (the patch zooms and a
-  // translation-only fit follows its gradient centroid), about 0.07 px per
-  // frame; the default 15 px window gives a median of 0.27 px over 10-frame
-  // tracks (the published 21 px: 0.33 px; one frame step: 0.11 px).
-  const UrbanSequence& seq = Sequence(1.0);
-  const Camera& camera = seq.rig.cameras[0];
-  const FrontendOptions options = ShiTomasiOptions();
-  CameraTracker tracker(camera, cv::Mat(), options, CreateDetector(options));
-  uint64_t next_id = 1;
-  std::map<uint64_t, Eigen::Vector3d> point_of_id;  // static scene points only
+// detected on (the detection pixel's ray cast into the scene), by track
+// length; camera image_00 of Sequence(scale).
+struct TrackAccuracy {
   std::vector<double> errors;
   std::map<int, std::vector<double>> errors_by_length;
   int max_track_length = 0;
-  double mean_track_length_sum = 0.0;
+  double mean_track_length = 0.0;  // mean over frames of the per-frame mean
+  int lost_anchor = 0;
+};
+
+TrackAccuracy MeasureTracks(const UrbanSequence& seq, const FrontendOptions& options) {
+  const Camera& camera = seq.rig.cameras[0];
+  CameraTracker tracker(camera, cv::Mat(), options, CreateDetector(options));
+  uint64_t next_id = 1;
+  std::map<uint64_t, Eigen::Vector3d> point_of_id;  // static scene points only
+  TrackAccuracy out;
   for (int frame = 0; frame < static_cast<int>(seq.images.size()); ++frame) {
     CameraFrameResult result = tracker.Track(seq.images[static_cast<size_t>(frame)]);
     tracker.AssignNewIds(&next_id, &result);
     EXPECT_FALSE(result.features.empty());
-    mean_track_length_sum += result.stats.mean_track_length;
+    out.mean_track_length += result.stats.mean_track_length / static_cast<double>(seq.images.size());
+    out.lost_anchor += result.stats.lost_anchor;
     const Rigid3d world_from_cam = seq.WorldFromCam(frame);
     const Rigid3d cam_from_world = world_from_cam.Inverse();
     for (const TrackedFeature& f : result.features) {
-      max_track_length = std::max(max_track_length, f.track_length);
+      out.max_track_length = std::max(out.max_track_length, f.track_length);
       if (f.track_length == 1) {
         const auto bearing = camera.Unproject(f.pixel.cast<double>());
-        ASSERT_TRUE(bearing.has_value());
+        EXPECT_TRUE(bearing.has_value());
+        if (!bearing) continue;
         const auto hit = seq.world.scene.Intersect(
             world_from_cam.translation, world_from_cam.rotation * *bearing, frame * kFramePeriodNs);
         if (hit && hit->moving_object < 0) point_of_id[f.id] = hit->point;
@@ -105,25 +106,66 @@ TEST(CameraTrackerTest, TracksAgreeWithGroundTruthProjections) {
       const auto it = point_of_id.find(f.id);
       if (it == point_of_id.end()) continue;
       const auto projection = camera.Project(cam_from_world * it->second);
-      ASSERT_TRUE(projection.has_value());
-      errors.push_back((projection->cast<float>() - f.pixel).norm());
-      errors_by_length[f.track_length].push_back(errors.back());
+      EXPECT_TRUE(projection.has_value());
+      if (!projection) continue;
+      out.errors.push_back((projection->cast<float>() - f.pixel).norm());
+      out.errors_by_length[f.track_length].push_back(out.errors.back());
     }
   }
-  ASSERT_GT(errors.size(), 200u);
-  const double median = Percentile(errors, 0.5);
-  const double p90 = Percentile(errors, 0.9);
+  return out;
+}
+
+void PrintAccuracy(const char* what, const Camera& camera, const TrackAccuracy& a) {
   std::printf(
-      "LK accuracy (Shi-Tomasi, urban, %dx%d): %zu observations, median %.3f px, p90 %.3f px, "
-      "max track length %d, mean of per-frame mean track length %.2f\n",
-      camera.width, camera.height, errors.size(), median, p90, max_track_length,
-      mean_track_length_sum / static_cast<double>(seq.images.size()));
-  for (const auto& [length, values] : errors_by_length) {
+      "LK accuracy (%s, urban, %dx%d): %zu observations, median %.3f px, p90 %.3f px, "
+      "max track length %d, mean of per-frame mean track length %.2f, lost to the anchor check %d\n",
+      what, camera.width, camera.height, a.errors.size(), Percentile(a.errors, 0.5), Percentile(a.errors, 0.9),
+      a.max_track_length, a.mean_track_length, a.lost_anchor);
+  for (const auto& [length, values] : a.errors_by_length) {
     std::printf("  track length %2d: %3zu observations, median %.3f px, p90 %.3f px\n", length, values.size(),
                 Percentile(values, 0.5), Percentile(values, 0.9));
   }
-  EXPECT_LT(median, 0.3);
-  EXPECT_GE(max_track_length, 8);
+}
+
+TEST(CameraTrackerTest, TracksAgreeWithGroundTruthProjections) {
+  // Full resolution and the default options (anchor check on): the check is
+  // on what users run.
+  const UrbanSequence& seq = Sequence(1.0);
+  const TrackAccuracy a = MeasureTracks(seq, ShiTomasiOptions());
+  PrintAccuracy("Shi-Tomasi, anchor check", seq.rig.cameras[0], a);
+  ASSERT_GT(a.errors.size(), 200u);
+  EXPECT_LT(Percentile(a.errors, 0.5), 0.2);
+  EXPECT_GE(a.max_track_length, 8);
+}
+
+// The anchor check (FrontendOptions::anchor) against frame-to-frame LK
+// alone on the same images. LK alone drifts under forward motion (the patch
+// zooms and a translation-only fit follows its gradient centroid), about
+// 0.07 px per frame: median 0.27 px over 10-frame tracks with the 15 px
+// window (the published 21 px: 0.33 px). Aligning each feature's first
+// patch under an affine warp removes the accumulation.
+TEST(CameraTrackerTest, AnchorCheckStopsTheDriftOfLongTracks) {
+  const UrbanSequence& seq = Sequence(1.0);
+  FrontendOptions lk_only = ShiTomasiOptions();
+  lk_only.anchor.enabled = false;
+  const TrackAccuracy anchored = MeasureTracks(seq, ShiTomasiOptions());
+  const TrackAccuracy plain = MeasureTracks(seq, lk_only);
+  PrintAccuracy("Shi-Tomasi, LK only", seq.rig.cameras[0], plain);
+  EXPECT_EQ(plain.lost_anchor, 0);
+  std::vector<double> long_anchored, long_plain;  // tracks of 6 frames or more
+  for (const auto& [length, values] : anchored.errors_by_length)
+    if (length >= 6) long_anchored.insert(long_anchored.end(), values.begin(), values.end());
+  for (const auto& [length, values] : plain.errors_by_length)
+    if (length >= 6) long_plain.insert(long_plain.end(), values.begin(), values.end());
+  ASSERT_GT(long_anchored.size(), 50u);
+  ASSERT_GT(long_plain.size(), 50u);
+  const double median_anchored = Percentile(long_anchored, 0.5);
+  const double median_plain = Percentile(long_plain, 0.5);
+  std::printf("tracks of 6+ frames: median %.3f px with the anchor check, %.3f px LK only\n", median_anchored,
+              median_plain);
+  EXPECT_LT(median_anchored, 0.6 * median_plain);
+  // It costs few tracks: the mean track length stays within 20 %.
+  EXPECT_GT(anchored.mean_track_length, 0.8 * plain.mean_track_length);
 }
 
 // Detection on the first pyramid level (FrontendOptions::

@@ -409,7 +409,7 @@ TEST(CrossCameraTest, TrackFileRoundTrip) {
     writer.Commit();
   }
   TrackFileReader reader(path);
-  EXPECT_EQ(reader.header().format_version, 2);
+  EXPECT_EQ(reader.header().format_version, 3);
   std::vector<MultiCameraFrame> read;
   while (std::optional<MultiCameraFrame> frame = reader.Next()) read.push_back(std::move(*frame));
   ExpectSameMatches(frames, read);

@@ -58,6 +58,7 @@ std::vector<MultiCameraFrame> MakeFrames(int descriptor_size, int descriptor_typ
       camera.stats.new_features = n - f;
       camera.stats.lost_lk = 7;
       camera.stats.lost_forward_backward = 2;
+      camera.stats.lost_anchor = 5 + c;
       camera.stats.ransac_inliers = 20 + c;
       camera.stats.ransac_outliers = 3;
       camera.stats.mean_track_length = 1.0 / 3.0 + f;
@@ -125,7 +126,7 @@ void ExpectRoundTrip(int descriptor_size, int descriptor_type) {
   EXPECT_EQ(reader.header().descriptor_type, header.descriptor_type);
   EXPECT_EQ(reader.header().detector, header.detector);
   EXPECT_EQ(reader.header().config_json, header.config_json);
-  EXPECT_EQ(reader.header().format_version, 2);
+  EXPECT_EQ(reader.header().format_version, 3);
   for (const MultiCameraFrame& expected : frames) {
     const std::optional<MultiCameraFrame> got = reader.Next();
     ASSERT_TRUE(got.has_value());
@@ -140,6 +141,7 @@ void ExpectRoundTrip(int descriptor_size, int descriptor_type) {
       EXPECT_EQ(g.stats.new_features, e.stats.new_features);
       EXPECT_EQ(g.stats.lost_lk, e.stats.lost_lk);
       EXPECT_EQ(g.stats.lost_forward_backward, e.stats.lost_forward_backward);
+      EXPECT_EQ(g.stats.lost_anchor, e.stats.lost_anchor);
       EXPECT_EQ(g.stats.ransac_inliers, e.stats.ransac_inliers);
       EXPECT_EQ(g.stats.ransac_outliers, e.stats.ransac_outliers);
       EXPECT_TRUE(SameBits(g.stats.mean_track_length, e.stats.mean_track_length));
@@ -270,9 +272,9 @@ TEST(TrackFile, AbsurdFeatureCountIsReportedNotAllocated) {
   WriteFrames(path, MakeHeader(0, 0), MakeFrames(0, 0));
   std::string bytes = ReadFileToString(path);
   // The first camera's feature count sits right after the header, the frame
-  // head (12 bytes) and the camera stats (41 bytes).
+  // head (12 bytes) and the camera stats (45 bytes).
   const size_t header_end = 12 + (static_cast<uint8_t>(bytes[8]) | static_cast<uint8_t>(bytes[9]) << 8);
-  const size_t count_at = header_end + 12 + 41;
+  const size_t count_at = header_end + 12 + 45;
   ASSERT_EQ(static_cast<uint8_t>(bytes[count_at]), 3);
   bytes[count_at + 3] = '\x7f';
   WriteFileAtomic(path, bytes);
@@ -286,49 +288,72 @@ size_t FrameOffset(const std::string& bytes, const std::vector<MultiCameraFrame>
   size_t at = 12 + (static_cast<uint8_t>(bytes[8]) | static_cast<uint8_t>(bytes[9]) << 8);
   for (size_t f = 0; f < index; ++f) {
     at += 12;
-    for (const CameraFrameResult& camera : frames[f].cameras) at += 45 + 24 * camera.features.size();
+    for (const CameraFrameResult& camera : frames[f].cameras) at += 49 + 24 * camera.features.size();
     if (cross_camera_block)
       at += 8 + 40 * frames[f].cross_pair_stats.size() + 18 * frames[f].cross_matches.size();
   }
   return at;
 }
 
-TEST(TrackFile, ReadsVersion1AsFramesWithoutCrossCameraMatches) {
-  // A version-1 file: the version-2 bytes without the cross-camera blocks.
-  const fs::path path = TempFile("version1.bin");
+// The bytes of an older version of a file written by
+// WriteFrames(MakeHeader(0, 0), frames): camera blocks without lost_anchor
+// (versions 1 and 2), frames without the cross-camera block (version 1).
+std::string OlderVersion(const std::string& v3, const std::vector<MultiCameraFrame>& frames, int version) {
+  std::string out = v3.substr(0, FrameOffset(v3, frames, 0));
+  const size_t version_at = out.find("\"format_version\":3");
+  EXPECT_NE(version_at, std::string::npos);
+  out[version_at + 17] = static_cast<char>('0' + version);
+  for (size_t f = 0; f < frames.size(); ++f) {
+    size_t at = FrameOffset(v3, frames, f);
+    out += v3.substr(at, 12);  // frame index, time
+    at += 12;
+    for (const CameraFrameResult& camera : frames[f].cameras) {
+      const size_t block = 49 + 24 * camera.features.size();
+      out += v3.substr(at, 16);                // tracked, new, lost_lk, lost_forward_backward
+      out += v3.substr(at + 20, block - 20);   // from ransac_inliers on: lost_anchor (bytes 16-19) left out
+      at += block;
+    }
+    if (version >= 2) out += v3.substr(at, FrameOffset(v3, frames, f + 1) - at);
+  }
+  out += v3.substr(v3.size() - 8);  // end record
+  return out;
+}
+
+TEST(TrackFile, ReadsVersions1And2) {
+  const fs::path path = TempFile("older_versions.bin");
   const std::vector<MultiCameraFrame> frames = MakeFrames(0, 0);
   WriteFrames(path, MakeHeader(0, 0), frames);
-  const std::string v2 = ReadFileToString(path);
-  std::string v1 = v2.substr(0, FrameOffset(v2, frames, 0));
-  const size_t version_at = v1.find("\"format_version\":2");
-  ASSERT_NE(version_at, std::string::npos);
-  v1[version_at + 17] = '1';
-  for (size_t f = 0; f < frames.size(); ++f) {
-    const size_t begin = FrameOffset(v2, frames, f);
-    const size_t block = FrameOffset(v2, frames, f + 1) - begin -
-                         (8 + 40 * frames[f].cross_pair_stats.size() + 18 * frames[f].cross_matches.size());
-    v1 += v2.substr(begin, block);
+  const std::string v3 = ReadFileToString(path);
+  for (int version : {1, 2}) {
+    SCOPED_TRACE(version);
+    WriteFileAtomic(path, OlderVersion(v3, frames, version));
+    TrackFileReader reader(path);
+    EXPECT_EQ(reader.header().format_version, version);
+    size_t count = 0;
+    while (std::optional<MultiCameraFrame> frame = reader.Next()) {
+      ASSERT_LT(count, frames.size());
+      const MultiCameraFrame& expected = frames[count];
+      EXPECT_EQ(frame->cameras[0].features.size(), expected.cameras[0].features.size());
+      EXPECT_EQ(frame->cameras[1].stats.ransac_inliers, expected.cameras[1].stats.ransac_inliers);
+      EXPECT_EQ(frame->cameras[1].stats.lost_forward_backward, expected.cameras[1].stats.lost_forward_backward);
+      EXPECT_EQ(frame->cameras[1].stats.lost_anchor, 0);  // not recorded before version 3
+      if (version == 1) {
+        EXPECT_TRUE(frame->cross_matches.empty());
+        EXPECT_TRUE(frame->cross_pair_stats.empty());
+      } else {
+        EXPECT_EQ(frame->cross_matches.size(), expected.cross_matches.size());
+      }
+      ++count;
+    }
+    EXPECT_EQ(count, frames.size());
   }
-  v1 += v2.substr(v2.size() - 8);  // end record
-  WriteFileAtomic(path, v1);
-  TrackFileReader reader(path);
-  EXPECT_EQ(reader.header().format_version, 1);
-  size_t count = 0;
-  while (std::optional<MultiCameraFrame> frame = reader.Next()) {
-    ASSERT_LT(count, frames.size());
-    EXPECT_EQ(frame->cameras[0].features.size(), frames[count].cameras[0].features.size());
-    EXPECT_TRUE(frame->cross_matches.empty());
-    EXPECT_TRUE(frame->cross_pair_stats.empty());
-    ++count;
-  }
-  EXPECT_EQ(count, frames.size());
 
   // Versions this reader does not know are named.
-  std::string v3 = v2;
-  v3[v2.find("\"format_version\":2") + 17] = '3';
-  WriteFileAtomic(path, v3);
+  std::string v4 = v3;
+  v4[v3.find("\"format_version\":3") + 17] = '4';
+  WriteFileAtomic(path, v4);
   const std::string message = ReadAllError(path);
-  EXPECT_NE(message.find("unsupported format_version 3 (this reader: 1 to 2)"), std::string::npos) << message;
+  EXPECT_NE(message.find("unsupported format_version 4 (this reader: 1 to 3)"), std::string::npos) << message;
   EXPECT_EQ(message.rfind(path.string() + ": ", 0), 0u) << message;
 }
 

@@ -72,7 +72,7 @@ TEST(TrackCli, TracksASequence) {
   EXPECT_EQ(reader.header().detector, "shi_tomasi");
   EXPECT_EQ(reader.header().descriptor_size, 0);
   EXPECT_NE(reader.header().config_json.find("\"frontend\""), std::string::npos);
-  EXPECT_EQ(reader.header().format_version, 2);
+  EXPECT_EQ(reader.header().format_version, 3);
   int frames = 0;
   size_t features = 0;
   size_t cross_matches = 0;

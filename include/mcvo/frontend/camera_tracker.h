@@ -29,6 +29,7 @@ struct CameraFrameStats {
   int tracked = 0;  // features carried over from the previous frame (after all checks)
   int lost_lk = 0;  // LK failed or left the image / mask
   int lost_forward_backward = 0;
+  int lost_anchor = 0;  // the anchor patch no longer matches (FrontendOptions::anchor)
   int ransac_inliers = 0;
   int ransac_outliers = 0;
   int new_features = 0;
@@ -36,8 +37,8 @@ struct CameraFrameStats {
   double sfd = 0.0;                // ComputeSfd over this frame's features
   // Wall time per stage in seconds: for logs and benchmarks only, never
   // written to deterministic outputs.
-  double seconds_pyramid = 0.0, seconds_lk = 0.0, seconds_ransac = 0.0, seconds_detect = 0.0,
-         seconds_select = 0.0;
+  double seconds_pyramid = 0.0, seconds_lk = 0.0, seconds_ransac = 0.0, seconds_anchor = 0.0,
+         seconds_detect = 0.0, seconds_select = 0.0;
 };
 
 struct CameraFrameResult {

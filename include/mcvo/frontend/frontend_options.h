@@ -43,6 +43,27 @@ struct LkOptions {
   double forward_backward_threshold_px = 0.5;
 };
 
+// Anchor check of LK tracks (include/mcvo/frontend/patch_aligner.h): every
+// tracked position is refined by aligning the feature's patch from the
+// frame it was detected in (affine warp, gain and offset), so that LK's
+// frame-to-frame errors do not add up along the track; a feature whose
+// patch no longer matches is dropped (CameraFrameStats::lost_anchor).
+struct AnchorOptions {
+  bool enabled = true;
+  int half_size_px = 10;         // template of (2 h + 1)^2 pixels
+  double weight_sigma_px = 5.0;  // Gaussian weight of the template around the feature; 0: uniform
+  int max_iterations = 30;
+  double min_zncc = 0.8;       // smallest normalised cross-correlation after alignment
+  double max_shift_px = 3.0;   // largest move from the LK position
+  double max_warp_change = 1.6;   // largest change of the affine warp in one frame (singular values)
+  // A feature whose patch no longer matches: dropped (true), or kept on its
+  // LK position with a new template taken there (false).
+  bool drop_mismatch = true;
+  // A new template is taken at the aligned position when the warp since the
+  // last one has a singular value outside [1 / s, s].
+  double reanchor_scale = 1.5;
+};
+
 struct SuperPointOptions {
   int downscale = 2;  // image downscaled by this factor before inference
   double confidence_threshold = 0.015;
@@ -92,6 +113,7 @@ struct FrontendOptions {
   double ransac_focal_px = 460.0;  // virtual pinhole focal the threshold is expressed at
   ClaheOptions clahe;
   LkOptions lk;
+  AnchorOptions anchor;
   SuperPointOptions superpoint;
   CrossCameraOptions cross_camera;
 

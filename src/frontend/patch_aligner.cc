@@ -1,0 +1,207 @@
+// Inverse compositional affine alignment of a feature's anchor patch
+// (patch_aligner.h).
+#include "mcvo/frontend/patch_aligner.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+#include <cmath>
+#include <limits>
+
+namespace mcvo {
+namespace {
+
+// Bilinear sample of a CV_8UC1 image; the caller keeps (x, y) inside
+// [0, cols - 1] x [0, rows - 1].
+inline float Sample(const cv::Mat& image, float x, float y) {
+  const int x0 = std::min(static_cast<int>(x), image.cols - 2);
+  const int y0 = std::min(static_cast<int>(y), image.rows - 2);
+  const float ax = x - static_cast<float>(x0);
+  const float ay = y - static_cast<float>(y0);
+  const uint8_t* r0 = image.ptr<uint8_t>(y0) + x0;
+  const uint8_t* r1 = image.ptr<uint8_t>(y0 + 1) + x0;
+  const float top = static_cast<float>(r0[0]) + ax * (static_cast<float>(r0[1]) - static_cast<float>(r0[0]));
+  const float bottom = static_cast<float>(r1[0]) + ax * (static_cast<float>(r1[1]) - static_cast<float>(r1[0]));
+  return top + ay * (bottom - top);
+}
+
+inline bool Inside(const cv::Mat& image, float x, float y) {
+  return x >= 0.0f && y >= 0.0f && x <= static_cast<float>(image.cols - 1) &&
+         y <= static_cast<float>(image.rows - 1) && image.cols >= 2 && image.rows >= 2;
+}
+
+// Samples the (2 h + 1)^2 template grid warped by y = warp * x + centre,
+// row-major; false when a sample leaves the image.
+bool SampleWarped(const cv::Mat& image, const Eigen::Matrix2f& warp, const Eigen::Vector2f& centre, int h,
+                  Eigen::VectorXf* values) {
+  const int side = 2 * h + 1;
+  values->resize(side * side);
+  int k = 0;
+  for (int v = -h; v <= h; ++v) {
+    for (int u = -h; u <= h; ++u, ++k) {
+      const Eigen::Vector2f y = warp * Eigen::Vector2f(static_cast<float>(u), static_cast<float>(v)) + centre;
+      if (!Inside(image, y.x(), y.y())) return false;
+      (*values)[k] = Sample(image, y.x(), y.y());
+    }
+  }
+  return true;
+}
+
+// Zero mean, unit norm in place; false when the patch is flat.
+bool Normalise(Eigen::VectorXf* values) {
+  const float mean = values->mean();
+  values->array() -= mean;
+  const float norm = values->norm();
+  // Flat: an rms deviation under half a grey level.
+  if (!(norm > 0.5f * std::sqrt(static_cast<float>(values->size())))) return false;
+  *values /= norm;
+  return true;
+}
+
+}  // namespace
+
+PatchAnchor MakePatchAnchor(const cv::Mat& image, const Eigen::Vector2f& pixel, const PatchAlignOptions& options) {
+  PatchAnchor anchor;
+  const int h = options.half_size_px;
+  const int side = 2 * h + 1;
+  // One pixel more on every side for the central differences.
+  Eigen::VectorXf wide;
+  if (!SampleWarped(image, Eigen::Matrix2f::Identity(), pixel, h + 1, &wide)) return anchor;
+  // Normalise with the template's own statistics (the inner grid), applied
+  // to the wide grid so that the gradients are of the normalised template.
+  const int wide_side = side + 2;
+  Eigen::VectorXf inner(side * side);
+  for (int r = 0; r < side; ++r) inner.segment(r * side, side) = wide.segment((r + 1) * wide_side + 1, side);
+  const float mean = inner.mean();
+  inner.array() -= mean;
+  const float norm = inner.norm();
+  if (!(norm > 0.5f * std::sqrt(static_cast<float>(inner.size())))) return anchor;
+  anchor.values = inner / norm;
+  anchor.steepest.resize(side * side, 6);
+  int k = 0;
+  for (int v = -h; v <= h; ++v) {
+    for (int u = -h; u <= h; ++u, ++k) {
+      const int r = v + h + 1;
+      const int c = u + h + 1;
+      const float gx = 0.5f * (wide[r * wide_side + c + 1] - wide[r * wide_side + c - 1]) / norm;
+      const float gy = 0.5f * (wide[(r + 1) * wide_side + c] - wide[(r - 1) * wide_side + c]) / norm;
+      const float fu = static_cast<float>(u);
+      const float fv = static_cast<float>(v);
+      anchor.steepest.row(k) << gx * fu, gx * fv, gy * fu, gy * fv, gx, gy;
+    }
+  }
+  // Gaussian weights (weight_sigma_px): the Gauss-Newton step minimises
+  // sum w (I - T)^2, so the steepest-descent rows kept are w-scaled and the
+  // Hessian is SD^T W SD.
+  Eigen::Matrix<float, Eigen::Dynamic, 6> weighted = anchor.steepest;
+  anchor.weights = Eigen::VectorXf::Ones(side * side);
+  if (options.weight_sigma_px > 0.0) {
+    const float two_sigma2 = static_cast<float>(2.0 * options.weight_sigma_px * options.weight_sigma_px);
+    int row = 0;
+    for (int v = -h; v <= h; ++v) {
+      for (int u = -h; u <= h; ++u, ++row) {
+        anchor.weights[row] = std::exp(-static_cast<float>(u * u + v * v) / two_sigma2);
+        weighted.row(row) *= anchor.weights[row];
+      }
+    }
+  }
+  const Eigen::Matrix<double, 6, 6> hessian = (anchor.steepest.transpose() * weighted).cast<double>();
+  anchor.steepest = std::move(weighted);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(hessian);
+  const double largest = eigen.eigenvalues()(5);
+  // The translation block carries the feature's position: it must be well
+  // conditioned by itself (an edge is not a feature).
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> translation(hessian.bottomRightCorner<2, 2>());
+  if (!(largest > 0.0) || eigen.eigenvalues()(0) < 1e-7 * largest ||
+      translation.eigenvalues()(0) < 1e-2 * translation.eigenvalues()(1)) {
+    return anchor;
+  }
+  anchor.hessian_inverse = hessian.inverse().cast<float>();
+  anchor.valid = true;
+  return anchor;
+}
+
+PatchAlignResult AlignPatch(const PatchAnchor& anchor, const cv::Mat& image, const Eigen::Vector2f& initial_pixel,
+                            const PatchAlignOptions& options) {
+  PatchAlignResult result;
+  if (!anchor.valid) return result;
+  const int h = options.half_size_px;
+  Eigen::Matrix2f warp = anchor.warp;
+  Eigen::Vector2f centre = initial_pixel;
+  Eigen::VectorXf values;
+  // Gauss-Newton with step halving: a step that raises the weighted cost is
+  // taken back and tried at half length (textures where the linearisation
+  // overshoots would otherwise oscillate).
+  Eigen::Matrix2f accepted_warp = warp;
+  Eigen::Vector2f accepted_centre = centre;
+  Eigen::Matrix<float, 6, 1> step = Eigen::Matrix<float, 6, 1>::Zero();
+  float accepted_cost = std::numeric_limits<float>::infinity();
+  float length = 1.0f;
+  bool converged = false;
+  float moved = 0.0f;
+  for (int it = 0; it < options.max_iterations; ++it) {
+    result.iterations = it + 1;
+    if (!SampleWarped(image, warp, centre, h, &values)) {
+      result.status = PatchAlignStatus::kOutsideImage;
+      return result;
+    }
+    if (!Normalise(&values)) return result;
+    const Eigen::VectorXf error = values - anchor.values;
+    const float cost = error.cwiseAbs2().dot(anchor.weights);
+    if (cost <= accepted_cost) {
+      accepted_cost = cost;
+      accepted_warp = warp;
+      accepted_centre = centre;
+      step = anchor.hessian_inverse * (anchor.steepest.transpose() * error);
+      length = 1.0f;
+    } else {
+      // Back to the last accepted state, half the step.
+      warp = accepted_warp;
+      centre = accepted_centre;
+      length *= 0.5f;
+    }
+    const Eigen::Matrix<float, 6, 1> scaled = length * step;
+    // Inverse composition: W <- W o W(step)^-1, W(step): x -> (I + D) x + d.
+    Eigen::Matrix2f identity_plus_d;
+    identity_plus_d << 1.0f + scaled[0], scaled[1], scaled[2], 1.0f + scaled[3];
+    const float det = identity_plus_d.determinant();
+    if (!(std::abs(det) > 1e-3f)) return result;
+    const Eigen::Matrix2f new_warp = warp * identity_plus_d.inverse();
+    const Eigen::Vector2f new_centre = centre - new_warp * scaled.tail<2>();
+    moved = (new_centre - centre).norm();
+    result.last_step_px = static_cast<double>(moved);
+    if (!std::isfinite(moved)) return result;
+    if (moved < static_cast<float>(options.convergence_px)) {
+      // The state the step starts from is the estimate (the tiny step is
+      // not checked against the cost).
+      converged = true;
+      break;
+    }
+    warp = new_warp;
+    centre = new_centre;
+  }
+  // Not converged within max_iterations: accepted when the last step was
+  // still small (a slow approach), not when it oscillates.
+  if (!converged && !(moved < 10.0f * static_cast<float>(options.convergence_px))) return result;
+  if (!SampleWarped(image, warp, centre, h, &values)) {
+    result.status = PatchAlignStatus::kOutsideImage;
+    return result;
+  }
+  if (!Normalise(&values)) return result;
+  result.zncc = static_cast<double>(values.dot(anchor.values));
+  result.pixel = centre;
+  result.warp = warp;
+  const bool near_lk = static_cast<double>((centre - initial_pixel).norm()) <= options.max_shift_px;
+  const float initial_det = anchor.warp.determinant();
+  const bool small_change =
+      std::abs(initial_det) > 1e-6f && !WarpBeyond(warp * anchor.warp.inverse(), options.max_warp_change);
+  if (result.zncc >= options.min_zncc && near_lk && small_change) result.status = PatchAlignStatus::kAligned;
+  return result;
+}
+
+bool WarpBeyond(const Eigen::Matrix2f& warp, double scale) {
+  const Eigen::JacobiSVD<Eigen::Matrix2f> svd(warp);
+  return static_cast<double>(svd.singularValues()(0)) > scale ||
+         static_cast<double>(svd.singularValues()(1)) < 1.0 / scale;
+}
+
+}  // namespace mcvo
