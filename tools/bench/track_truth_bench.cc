@@ -1,0 +1,152 @@
+// Accuracy of a track file against the renderer's ground truth
+// (tools/bench_anchor.sh, results/anchor_tracking.md).
+//
+//   mcvo_bench_track_truth DATASET TRACKS [TRUE_TRACKS]
+//
+// DATASET is a `mcvo synth` output (meta.json names the scene and seed,
+// rig.json the cameras, groundtruth.tum the rig poses); TRACKS a track file
+// of `mcvo track` on it. Each feature's first observation is cast into the
+// scene (static geometry only; features on moving objects are skipped); at
+// every later observation the error is the distance between the tracked
+// pixel and the projection of that 3-D point. Printed per camera and track
+// length: observations, median, 75th and 90th percentile of the error, and
+// the median of its component along the feature's motion since it was
+// detected (a systematic overshoot or lag shows there).
+//
+// TRUE_TRACKS (optional): the same track file with every observation after
+// the first replaced by that projection (features on moving objects or
+// leaving the camera's model keep their tracked pixels): `mcvo run --tracks`
+// on it shows what the back end makes of the same features without
+// tracking error.
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mcvo/frontend/track_file.h"
+#include "mcvo/io/rig_io.h"
+#include "mcvo/io/trajectory_io.h"
+#include "mcvo/synth/scene.h"
+#include "mcvo/util/error.h"
+
+namespace {
+
+using mcvo::Camera;
+using mcvo::Rigid3d;
+
+double Quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  return values[static_cast<size_t>(q * static_cast<double>(values.size() - 1))];
+}
+
+struct FirstSight {
+  bool on_static_scene = false;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector2f pixel = Eigen::Vector2f::Zero();
+};
+
+int Run(const std::string& dataset, const std::string& tracks, const std::string& true_tracks) {
+  std::ifstream meta_file(dataset + "/meta.json");
+  if (!meta_file) MCVO_THROW_INPUT(dataset, "/meta.json: cannot open (not a `mcvo synth` dataset)");
+  const nlohmann::json meta = nlohmann::json::parse(meta_file, nullptr, false);
+  if (meta.is_discarded() || !meta.contains("scene") || !meta.contains("seed")) {
+    MCVO_THROW_INPUT(dataset, "/meta.json: expected the keys scene and seed");
+  }
+  const mcvo::Rig rig = mcvo::ReadRig(dataset + "/rig.json");
+  const mcvo::Trajectory gt = mcvo::ReadTrajectory(dataset + "/groundtruth.tum", mcvo::TrajectoryFormat::kTum);
+  if (gt.poses.empty()) MCVO_THROW_INPUT(dataset, "/groundtruth.tum: no poses");
+  const mcvo::synth::SceneWithRoute world =
+      mcvo::synth::BuildScene(meta["scene"].get<std::string>(), meta["seed"].get<uint64_t>());
+  mcvo::TrackFileReader reader(tracks);
+  const mcvo::TrackFileHeader& header = reader.header();
+  std::vector<const Camera*> cameras;
+  for (const std::string& name : header.camera_names) {
+    const Camera* found = nullptr;
+    for (const Camera& camera : rig.cameras)
+      if (camera.name == name) found = &camera;
+    if (found == nullptr) MCVO_THROW_INPUT(tracks, ": camera ", name, " is not in ", dataset, "/rig.json");
+    cameras.push_back(found);
+  }
+  const int64_t first_t_ns = gt.poses.front().t_ns;
+  // Track lengths reported: 2, 3, 5, 9, 17, 33 (one step, then doubling).
+  const std::vector<int> lengths = {2, 3, 5, 9, 17, 33};
+  std::map<std::pair<size_t, uint64_t>, FirstSight> first_sight;
+  std::map<std::pair<size_t, int>, std::vector<double>> errors, along;
+  std::optional<mcvo::TrackFileWriter> writer;
+  if (!true_tracks.empty()) writer.emplace(true_tracks, header);
+  while (std::optional<mcvo::MultiCameraFrame> frame = reader.Next()) {
+    const size_t index = static_cast<size_t>(frame->frame_index);
+    if (index >= gt.poses.size()) MCVO_THROW_INPUT(tracks, ": frame ", index, " has no ground-truth pose");
+    for (size_t c = 0; c < frame->cameras.size(); ++c) {
+      const Camera& camera = *cameras[c];
+      const Rigid3d world_from_cam = gt.poses[index].world_from_body * camera.cam_from_rig.Inverse();
+      const Rigid3d cam_from_world = world_from_cam.Inverse();
+      for (mcvo::TrackedFeature& f : frame->cameras[c].features) {
+        const auto key = std::make_pair(c, f.id);
+        auto it = first_sight.find(key);
+        if (it == first_sight.end()) {
+          FirstSight sight;
+          sight.pixel = f.pixel;
+          if (const auto bearing = camera.Unproject(f.pixel.cast<double>())) {
+            const auto hit = world.scene.Intersect(world_from_cam.translation, world_from_cam.rotation * *bearing,
+                                                   frame->t_ns - first_t_ns);
+            if (hit && hit->moving_object < 0) {
+              sight.on_static_scene = true;
+              sight.point = hit->point;
+            }
+          }
+          first_sight.emplace(key, sight);
+          continue;
+        }
+        if (!it->second.on_static_scene) continue;
+        const auto projection = camera.Project(cam_from_world * it->second.point);
+        if (!projection) continue;
+        const Eigen::Vector2f truth = projection->cast<float>();
+        const Eigen::Vector2f error = f.pixel - truth;
+        f.pixel = truth;  // for TRUE_TRACKS
+        const auto slot = std::find(lengths.begin(), lengths.end(), f.track_length);
+        if (slot == lengths.end()) continue;
+        const Eigen::Vector2f motion = truth - it->second.pixel;
+        const int l = static_cast<int>(slot - lengths.begin());
+        errors[{c, l}].push_back(error.norm());
+        if (motion.norm() > 1.0f) along[{c, l}].push_back(error.dot(motion.normalized()));
+      }
+    }
+    if (writer) writer->Write(*frame);
+  }
+  if (writer) writer->Commit();
+  std::printf("| camera | track length | observations | median px | p75 px | p90 px | along motion, median px |\n");
+  std::printf("|---|---|---|---|---|---|---|\n");
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    for (size_t l = 0; l < lengths.size(); ++l) {
+      const std::vector<double>& e = errors[{c, static_cast<int>(l)}];
+      if (e.empty()) continue;
+      std::printf("| %s | %d | %zu | %.3f | %.3f | %.3f | %+.3f |\n", cameras[c]->name.c_str(), lengths[l], e.size(),
+                  Quantile(e, 0.5), Quantile(e, 0.75), Quantile(e, 0.9),
+                  Quantile(along[{c, static_cast<int>(l)}], 0.5));
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 3 && argc != 4) {
+    std::fprintf(stderr,
+                 "usage: mcvo_bench_track_truth DATASET TRACKS [TRUE_TRACKS] (a `mcvo synth` dataset, a `mcvo "
+                 "track` file of it, the track file to write with true pixels)\n");
+    return 2;
+  }
+  try {
+    return Run(argv[1], argv[2], argc == 4 ? argv[3] : "");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mcvo_bench_track_truth: error: %s\n", e.what());
+    return 1;
+  }
+}
