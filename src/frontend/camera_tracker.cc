@@ -131,8 +131,9 @@ struct CameraTracker::Impl {
   // Anchor check (options.anchor): refines kept_pixels against each
   // feature's anchor patch in `image`, drops the features whose patch no
   // longer matches; `anchors` receives the kept features' anchors.
+  // The kept features' anchors are moved out of prev_anchors.
   void RefineByAnchor(const cv::Mat& image, std::vector<int>* kept, std::vector<cv::Point2f>* kept_pixels,
-                      std::vector<PatchAnchor>* anchors, CameraFrameStats* stats) const;
+                      std::vector<PatchAnchor>* anchors, CameraFrameStats* stats);
   // Detection and selection of new features up to max_features.
   void AddNewFeatures(const cv::Mat& image, const std::vector<cv::Mat>& pyramid, CameraFrameResult* result) const;
   // Detections on detection_level, in full-resolution pixels.
@@ -340,13 +341,14 @@ void CameraTracker::Impl::RejectByRansac(std::vector<int>* kept, std::vector<cv:
 
 void CameraTracker::Impl::RefineByAnchor(const cv::Mat& image, std::vector<int>* kept,
                                          std::vector<cv::Point2f>* kept_pixels, std::vector<PatchAnchor>* anchors,
-                                         CameraFrameStats* stats) const {
+                                         CameraFrameStats* stats) {
   MCVO_CHECK(prev_anchors.size() == prev_features.size());
   std::vector<int> survivors;
   std::vector<cv::Point2f> survivor_pixels;
   for (size_t k = 0; k < kept->size(); ++k) {
     const int index = (*kept)[k];
-    PatchAnchor anchor = prev_anchors[static_cast<size_t>(index)];
+    // Each previous feature is kept at most once (kept holds distinct indices).
+    PatchAnchor anchor = std::move(prev_anchors[static_cast<size_t>(index)]);
     cv::Point2f pixel = (*kept_pixels)[k];
     // A patch without the texture to align (or cut by the border when the
     // feature was found) keeps its LK track unchecked, as does one whose
