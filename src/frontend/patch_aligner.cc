@@ -6,6 +6,7 @@
 #include <Eigen/SVD>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace mcvo {
 namespace {
@@ -25,14 +26,14 @@ inline float Sample(const cv::Mat& image, float x, float y) {
 }
 
 inline bool Inside(const cv::Mat& image, float x, float y) {
-  return x >= 0.0f && y >= 0.0f && x <= static_cast<float>(image.cols - 1) &&
-         y <= static_cast<float>(image.rows - 1) && image.cols >= 2 && image.rows >= 2;
+  return x >= 0.0f && y >= 0.0f && x <= static_cast<float>(image.cols - 1) && y <= static_cast<float>(image.rows - 1);
 }
 
 // Samples the (2 h + 1)^2 template grid warped by y = warp * x + centre,
 // row-major; false when a sample leaves the image.
 bool SampleWarped(const cv::Mat& image, const Eigen::Matrix2f& warp, const Eigen::Vector2f& centre, int h,
                   Eigen::VectorXf* values) {
+  if (image.cols < 2 || image.rows < 2) return false;  // no bilinear cell
   const int side = 2 * h + 1;
   values->resize(side * side);
   int k = 0;
@@ -46,15 +47,16 @@ bool SampleWarped(const cv::Mat& image, const Eigen::Matrix2f& warp, const Eigen
   return true;
 }
 
-// Zero mean, unit norm in place; false when the patch is flat.
-bool Normalise(Eigen::VectorXf* values) {
+// Zero mean, unit norm in place; returns the norm it divided by, 0 when the
+// patch is flat (an rms deviation under half a grey level; values then
+// zero-mean only).
+float Normalise(Eigen::VectorXf* values) {
   const float mean = values->mean();
   values->array() -= mean;
   const float norm = values->norm();
-  // Flat: an rms deviation under half a grey level.
-  if (!(norm > 0.5f * std::sqrt(static_cast<float>(values->size())))) return false;
+  if (!(norm > 0.5f * std::sqrt(static_cast<float>(values->size())))) return 0.0f;
   *values /= norm;
-  return true;
+  return norm;
 }
 
 }  // namespace
@@ -71,11 +73,9 @@ PatchAnchor MakePatchAnchor(const cv::Mat& image, const Eigen::Vector2f& pixel, 
   const int wide_side = side + 2;
   Eigen::VectorXf inner(side * side);
   for (int r = 0; r < side; ++r) inner.segment(r * side, side) = wide.segment((r + 1) * wide_side + 1, side);
-  const float mean = inner.mean();
-  inner.array() -= mean;
-  const float norm = inner.norm();
-  if (!(norm > 0.5f * std::sqrt(static_cast<float>(inner.size())))) return anchor;
-  anchor.values = inner / norm;
+  const float norm = Normalise(&inner);
+  if (norm == 0.0f) return anchor;
+  anchor.values = std::move(inner);
   anchor.steepest.resize(side * side, 6);
   int k = 0;
   for (int v = -h; v <= h; ++v) {
@@ -144,7 +144,7 @@ PatchAlignResult AlignPatch(const PatchAnchor& anchor, const cv::Mat& image, con
       result.status = PatchAlignStatus::kOutsideImage;
       return result;
     }
-    if (!Normalise(&values)) return result;
+    if (Normalise(&values) == 0.0f) return result;
     const Eigen::VectorXf error = values - anchor.values;
     const float cost = error.cwiseAbs2().dot(anchor.weights);
     if (cost <= accepted_cost) {
@@ -186,7 +186,7 @@ PatchAlignResult AlignPatch(const PatchAnchor& anchor, const cv::Mat& image, con
     result.status = PatchAlignStatus::kOutsideImage;
     return result;
   }
-  if (!Normalise(&values)) return result;
+  if (Normalise(&values) == 0.0f) return result;
   result.zncc = static_cast<double>(values.dot(anchor.values));
   result.pixel = centre;
   result.warp = warp;
