@@ -124,6 +124,7 @@ void Visit(V& v, InitializerOptions* o) {
   v.Field("virtual_focal_px", &o->virtual_focal_px);
   v.Field("min_cameras_passing", &o->min_cameras_passing);
   v.NamesOrAll("required_cameras", &o->required_cameras);
+  v.Field("relax_required_after_windows", &o->relax_required_after_windows);
   v.Field("min_cross_camera_matches", &o->min_cross_camera_matches);
   v.Field("min_cross_camera_angle_deg", &o->min_cross_camera_angle_deg);
   v.Field("min_singular_value_ratio", &o->min_singular_value_ratio);

@@ -96,6 +96,7 @@ struct Initializer::Impl {
     spent = false;
     attempts = 0;
     failed_windows = 0;
+    blocked_windows = 0;
   }
 
   int NumCameras() const { return rig.NumCameras(); }
@@ -103,6 +104,16 @@ struct Initializer::Impl {
   bool Monocular() const { return rig.NumCameras() == 1; }
   // The fewest cameras that must pass (a one-camera rig has one).
   int MinCamerasPassing() const { return std::min(options.min_cameras_passing, NumCameras()); }
+  // initializer.h "Cameras that never pass": after relax_required_after_windows
+  // windows held up only by required cameras, any MinCamerasPassing() do.
+  bool Relaxed() const {
+    return options.relax_required_after_windows >= 0 && blocked_windows >= options.relax_required_after_windows;
+  }
+  std::string BlockedNote() const {
+    if (options.relax_required_after_windows < 0) return "";
+    return StrCat("; held up by required cameras ", blocked_windows, "/", options.relax_required_after_windows,
+                  " windows");
+  }
 
   std::optional<InitializationResult> AddFrame(const RigFrameObservations& frame) {
     MCVO_CHECK_MSG(static_cast<int>(frame.cameras.size()) == NumCameras(), "frame ", frame.frame_index,
@@ -166,6 +177,8 @@ struct Initializer::Impl {
     }
     int best_l = -1, best_count = -1;
     std::vector<CameraParallax> best_stats;
+    int relaxed_l = -1;  // the first l where enough cameras pass, required or not
+    std::vector<bool> relaxed_passing;
     for (int l = 0; l < newest; ++l) {
       std::vector<CameraParallax> stats(static_cast<size_t>(NumCameras()));
       int count = 0;
@@ -190,17 +203,32 @@ struct Initializer::Impl {
         count += s.passes ? 1 : 0;
         if (required[static_cast<size_t>(c)] && !s.passes) required_pass = false;
       }
-      if (required_pass && count >= MinCamerasPassing()) {
-        *anchor = l;
-        passing->resize(stats.size());
-        for (size_t c = 0; c < stats.size(); ++c) (*passing)[c] = stats[c].passes;
-        return true;
+      if (count >= MinCamerasPassing()) {
+        std::vector<bool> passes(stats.size());
+        for (size_t c = 0; c < stats.size(); ++c) passes[c] = stats[c].passes;
+        if (required_pass) {
+          *anchor = l;
+          *passing = std::move(passes);
+          return true;
+        }
+        if (relaxed_l < 0) {
+          relaxed_l = l;
+          relaxed_passing = std::move(passes);
+        }
       }
       if (count > best_count) {
         best_count = count;
         best_l = l;
         best_stats = stats;
       }
+    }
+    if (relaxed_l >= 0) {  // only required cameras hold it up
+      if (Relaxed()) {
+        *anchor = relaxed_l;
+        *passing = std::move(relaxed_passing);
+        return true;
+      }
+      ++blocked_windows;
     }
     // Why not: the first failing (required, then any) camera of the best candidate.
     int failing = -1;
@@ -214,7 +242,8 @@ struct Initializer::Impl {
     }
     const std::string where =
         StrCat(" (best anchor frame ", window[static_cast<size_t>(best_l)].frame_index, ": ", best_count, "/",
-               NumCameras(), " cameras pass, ", MinCamerasPassing(), " needed)");
+               NumCameras(), " cameras pass, ", MinCamerasPassing(), " needed", relaxed_l >= 0 ? BlockedNote() : "",
+               ")");
     if (failing < 0) {
       reason = StrCat("too few cameras pass", where);
       return false;
@@ -427,7 +456,13 @@ struct Initializer::Impl {
       }
       required_failed = required_failed || is_required;
     }
-    if (required_failed || static_cast<int>(used.size()) < MinCamerasPassing()) {
+    const bool enough = static_cast<int>(used.size()) >= MinCamerasPassing();
+    if (required_failed && enough && !Relaxed()) {
+      ++blocked_windows;
+      reason = StrCat(failure, " (", used.size(), " other cameras would do", BlockedNote(), ")");
+      return std::nullopt;
+    }
+    if (!enough) {
       reason = failure;
       return std::nullopt;
     }
@@ -626,6 +661,9 @@ struct Initializer::Impl {
   bool spent = false;
   int attempts = 0;
   int failed_windows = 0;  // full windows whose motion initialisation failed, since Reset()
+  // Full windows where enough cameras passed but a required one did not (in
+  // the trigger or its SfM), since Reset(): Relaxed().
+  int blocked_windows = 0;
   double smallest_rejected_sigma = std::numeric_limits<double>::infinity();
 };
 

@@ -23,6 +23,7 @@ void InitializerOptions::Check() const {
                        "\" listed twice");
     }
   }
+  CheckAtLeast("/initializer/relax_required_after_windows", relax_required_after_windows, -1);
   CheckAtLeast("/initializer/min_cross_camera_matches", min_cross_camera_matches, 1);
   CheckAtLeast("/initializer/min_cross_camera_angle_deg", min_cross_camera_angle_deg, 0.0);
   CheckInRange("/initializer/min_singular_value_ratio", min_singular_value_ratio, 0.0, 1.0);

@@ -338,6 +338,48 @@ TEST(Initializer, MissingCameraIsReported) {
       << mono.reason;
 }
 
+// A camera that sees nothing (a blank wall: no features, image present)
+// never passes the trigger. With every camera required and no relaxation the
+// rig never initialises and the reason names the camera; by default, after
+// relax_required_after_windows windows that only it held up, the other
+// cameras initialise without it, and the scale is the stereo pair's.
+TEST(Initializer, CameraThatNeverPassesIsLeftOutAfterWaiting) {
+  const Rig rig = LoadPresetRig("kitti360");
+  SyntheticRigTracks tracks = Tracks(rig, TurningTrajectory(40, 0.6, 3.0), 1.0, 11, /*cross_camera=*/true);
+  const int blank = rig.FindCamera("image_02");
+  ASSERT_GE(blank, 0);
+  for (RigFrameObservations& frame : tracks.frames) {
+    frame.cameras[static_cast<size_t>(blank)].clear();
+    std::vector<CrossCameraObservation> kept;
+    for (const CrossCameraObservation& o : frame.cross_camera) {
+      if (o.camera_a != blank && o.camera_b != blank) kept.push_back(o);
+    }
+    frame.cross_camera = kept;
+  }
+  InitializerOptions never;
+  never.relax_required_after_windows = -1;
+  const Outcome waiting = RunInitializer(rig, tracks, never);
+  EXPECT_FALSE(waiting.result);
+  EXPECT_NE(waiting.reason.find("image_02: 0 correspondences"), std::string::npos) << waiting.reason;
+
+  const InitializerOptions defaults;
+  ASSERT_EQ(defaults.relax_required_after_windows, 10);
+  const Outcome o = RunInitializer(rig, tracks, defaults);
+  ASSERT_TRUE(o.result) << o.reason;
+  // Windows are full from frame 10 on (window_size 10); the 10 before the
+  // relaxation each count one.
+  EXPECT_EQ(o.frames_fed, defaults.window_size + defaults.relax_required_after_windows);
+  EXPECT_NE(o.reasons.back().find("held up by required cameras 10/10 windows"), std::string::npos)
+      << o.reasons.back();
+  const InitializationResult& r = *o.result;
+  ASSERT_EQ(r.camera_used.size(), 4u);
+  EXPECT_FALSE(r.camera_used[static_cast<size_t>(blank)]);
+  EXPECT_TRUE(r.camera_used[static_cast<size_t>(rig.FindCamera("image_00"))]);
+  EXPECT_TRUE(r.camera_used[static_cast<size_t>(rig.FindCamera("image_01"))]);
+  std::printf("kitti360 with image_02 blank, 1 px: %s\n", Describe(o, tracks).c_str());
+  EXPECT_LT(std::abs(ScaleError(r, tracks)), 0.01);
+}
+
 // A one-camera rig (its camera at the rig origin, as `mcvo run` places it):
 // monocular, the unit is the camera's travel over the window. The window's
 // poses are the truth divided by that travel; straight and turning, 1 px.
@@ -392,6 +434,17 @@ TEST(Initializer, BadOptionsThrowNamingTheField) {
   options = InitializerOptions();
   options.max_rig_ba_iterations = -1;
   EXPECT_THROW(options.Check(), InputError);
+  options = InitializerOptions();
+  options.relax_required_after_windows = -2;
+  try {
+    options.Check();
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/initializer/relax_required_after_windows"), std::string::npos)
+        << e.what();
+  }
+  options.relax_required_after_windows = -1;  // never
+  EXPECT_NO_THROW(options.Check());
 }
 
 TEST(InitializerDeathTest, MisuseAborts) {

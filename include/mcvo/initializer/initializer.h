@@ -45,6 +45,17 @@
 //     rig poses and landmarks together, and give the uncertainty of the
 //     scale (marginal relative std of the distance travelled); rejected when
 //     it exceeds max_relative_scale_sigma.
+//  Cameras that never pass: a camera facing a blank wall, the ceiling or a
+//  dark room may not pass for the whole sequence, and with every camera
+//  required the rig would never initialise (two rendered indoor sequences,
+//  a 5- and a 3-camera rig, posed no frame). So after
+//  relax_required_after_windows full windows that only required cameras
+//  held up (enough other cameras passed), the trigger takes the first
+//  anchor where every required camera passes and, failing that, the first
+//  where any min_cameras_passing cameras pass; a required camera whose SfM
+//  fails is then left out too. The cameras left out join the odometry after
+//  the initialisation, through its landmarks. The reason of a waiting window
+//  counts these windows.
 //  A rejected window waits: the next frame slides it by one and the reason
 //  is kept (WaitingReason). So under pure translation without overlapping
 //  views the initializer waits, however long, instead of returning a scale
@@ -115,6 +126,11 @@ struct InitializerOptions {
   double virtual_focal_px = 460.0;
   int min_cameras_passing = 2;                // with a required_cameras list: the fewest that may pass
   std::vector<std::string> required_cameras;  // empty: all cameras ("all" in JSON)
+  // "Cameras that never pass" (above): after this many full windows in
+  // which at least min_cameras_passing cameras passed but a required one
+  // did not (trigger or SfM), any min_cameras_passing cameras initialise.
+  // -1: wait for the required cameras however long.
+  int relax_required_after_windows = 10;
   // Cross-camera scale: matches a camera needs in the window (after the
   // robust filter), and the smallest triangulation angle of a usable match
   // (the angle its SfM point predicts).
