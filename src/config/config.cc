@@ -227,6 +227,8 @@ void Visit(V& v, GlobalBaOptions* o) {
   v.Field("outlier_rounds", &o->outlier_rounds);
   v.Enum("loss", &o->loss, kLossTypeNames);
   v.Field("loss_scale", &o->loss_scale);
+  v.Field("adaptive_loss_sigmas", &o->adaptive_loss_sigmas);
+  v.Field("adaptive_loss_min_px", &o->adaptive_loss_min_px);
   v.Field("reprojection_sigma_px", &o->reprojection_sigma_px);
   v.Field("virtual_focal_px", &o->virtual_focal_px);
   v.Field("outlier_threshold_px", &o->outlier_threshold_px);

@@ -301,6 +301,7 @@ Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Ev
   json["observations"] = ba.observations_used;
   json["observations_removed"] = ba.observations_removed;
   json["solves"] = ba.solves;
+  json["loss_knee_px"] = ba.loss_knee_px;
   json["iterations"] = ba.iterations;
   json["initial_cost"] = ba.initial_cost;
   json["final_cost"] = ba.final_cost;

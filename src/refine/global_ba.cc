@@ -136,6 +136,7 @@ class GlobalProblem {
   GlobalProblem(const Rig& rig, const SparseMap& map, bool scale_free, const GlobalBaOptions& options,
                 const std::vector<GlobalBaPoseConstraint>& constraints)
       : options_(options),
+        loss_scale_(options.loss_scale),
         constraints_(constraints),
         scale_free_(scale_free),
         cam_from_rig_(rig.CamFromRig()),
@@ -211,7 +212,7 @@ class GlobalProblem {
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
     std::unique_ptr<ceres::Manifold> manifold(NewPoseManifold());
-    std::unique_ptr<ceres::LossFunction> loss = NewRobustLoss(options_.loss, options_.loss_scale);
+    std::unique_ptr<ceres::LossFunction> loss = NewRobustLoss(options_.loss, loss_scale_);
     for (size_t k = 0; k < poses_.size(); ++k) {
       if (keyframe_used_[k]) problem.AddParameterBlock(poses_[k].data(), kPoseParamSize, manifold.get());
     }
@@ -296,6 +297,25 @@ class GlobalProblem {
     }
     return *count > 0 ? std::sqrt(sum / *count) : 0.0;
   }
+
+  // global_ba.h "Robust loss": the knee of the next solve from the noise in
+  // the counted observations' errors (px at the virtual focal).
+  double MeasuredKneePx() const {
+    std::vector<double> errors;
+    for (const Observation& o : observations_) {
+      if (!Counts(o)) continue;
+      const double e = Error(o);
+      if (e >= 0.0) errors.push_back(e);
+    }
+    const double first = options_.loss_scale * options_.reprojection_sigma_px;
+    if (errors.empty()) return first;
+    const size_t mid = errors.size() / 2;
+    std::nth_element(errors.begin(), errors.begin() + static_cast<std::ptrdiff_t>(mid), errors.end());
+    const double sigma = errors[mid] / 1.1774;
+    return std::clamp(options_.adaptive_loss_sigmas * sigma, std::min(options_.adaptive_loss_min_px, first), first);
+  }
+  double KneePx() const { return loss_scale_ * options_.reprojection_sigma_px; }
+  void SetKneePx(double knee_px) { loss_scale_ = knee_px / options_.reprojection_sigma_px; }
 
   // Deactivates outliers and points behind the camera; returns how many.
   int RemoveOutliers() {
@@ -475,6 +495,7 @@ class GlobalProblem {
   }
 
   const GlobalBaOptions& options_;
+  double loss_scale_;  // of the next solve, in units of reprojection_sigma_px ("Robust loss")
   const std::vector<GlobalBaPoseConstraint>& constraints_;
   const bool scale_free_;
   const std::vector<Rigid3d> cam_from_rig_;
@@ -497,6 +518,8 @@ void GlobalBaOptions::Check() const {
   CheckAtLeast("/refine/max_iterations", max_iterations, 1);
   CheckAtLeast("/refine/outlier_rounds", outlier_rounds, 0);
   CheckPositive("/refine/loss_scale", loss_scale);
+  CheckAtLeast("/refine/adaptive_loss_sigmas", adaptive_loss_sigmas, 0.0);
+  CheckPositive("/refine/adaptive_loss_min_px", adaptive_loss_min_px);
   CheckPositive("/refine/reprojection_sigma_px", reprojection_sigma_px);
   CheckPositive("/refine/virtual_focal_px", virtual_focal_px);
   CheckPositive("/refine/outlier_threshold_px", outlier_threshold_px);
@@ -532,7 +555,9 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
   }
   int count = 0;
   result.rms_error_px_before = problem.RmsError(&count);
+  const bool adaptive = options.adaptive_loss_sigmas > 0.0;
   for (int round = 0; round <= options.outlier_rounds; ++round) {
+    result.loss_knee_px.push_back(problem.KneePx());
     const ceres::Solver::Summary summary = problem.Solve(&result.components, &result.constraints_used);
     if (round == 0) result.initial_cost = summary.initial_cost;
     result.final_cost = summary.final_cost;
@@ -542,9 +567,12 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
     ++result.solves;
     if (round == options.outlier_rounds) break;
     const int removed = problem.RemoveOutliers();
-    if (removed == 0) break;
     result.observations_removed += removed;
-    if (!problem.SelectActive()) break;
+    if (removed > 0 && !problem.SelectActive()) break;
+    // global_ba.h "Robust loss": the next knee from this solve's residuals.
+    const double knee = adaptive ? problem.MeasuredKneePx() : problem.KneePx();
+    if (removed == 0 && !(knee < problem.KneePx())) break;  // the same problem again: nothing to gain
+    problem.SetKneePx(knee);
   }
   result.ran = true;
   result.rms_error_px_after = problem.RmsError(&result.observations_used);

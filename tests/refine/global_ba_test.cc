@@ -232,6 +232,45 @@ TEST(GlobalBaTest, OutliersAreRemovedAndDoNotMoveTheSolution) {
   EXPECT_EQ(before - kept, static_cast<size_t>(result.observations_removed));
 }
 
+// global_ba.h "Robust loss": the first solve's knee is the configured
+// 1.5 px; the second's follows the noise measured in the first's residuals
+// (2 sigma), so it scales with the pixel noise and never exceeds the first.
+TEST(GlobalBaTest, TheSecondSolvesKneeFollowsTheMeasuredNoise) {
+  std::vector<double> knees;
+  for (const double noise : {0.2, 0.5}) {
+    Scene scene = MakeScene("kitti360", noise, 1.0, 4);
+    // Outliers, so that the second solve runs with the knee off too.
+    for (MapKeyframe& kf : scene.map.keyframes) {
+      for (size_t i = 0; i < kf.observations.size(); i += 40) kf.observations[i].pixel += Eigen::Vector2d(25.0, 10.0);
+    }
+    const GlobalBaResult result = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+    ASSERT_TRUE(result.ran);
+    ASSERT_EQ(result.loss_knee_px.size(), 2u);
+    EXPECT_EQ(result.loss_knee_px[0], 1.5);
+    std::printf("pixel noise %.1f px: knees %.3f, %.3f px (at the virtual focal); max position error %.4f m\n", noise,
+                result.loss_knee_px[0], result.loss_knee_px[1], MaxPositionError(result.map, scene.truth));
+    knees.push_back(result.loss_knee_px[1]);
+    EXPECT_LT(MaxPositionError(result.map, scene.truth), 0.1);
+
+    GlobalBaOptions fixed;
+    fixed.adaptive_loss_sigmas = 0.0;
+    const GlobalBaResult off = RunGlobalBundleAdjustment(scene.rig, scene.map, false, fixed);
+    ASSERT_EQ(off.loss_knee_px.size(), 2u);
+    EXPECT_EQ(off.loss_knee_px[1], 1.5);
+  }
+  // 2 x 0.2 px of image noise, expressed at the virtual focal (0.32 px
+  // measured: the tangent-plane error is the image error scaled by the
+  // virtual focal over the camera's), and in proportion to the noise.
+  EXPECT_GT(knees[0], 0.2);
+  EXPECT_LT(knees[0], 0.6);
+  EXPECT_NEAR(knees[1] / knees[0], 2.5, 0.4);
+  // Noise of 2 px: the measured knee would exceed the first; it stays.
+  const Scene noisy = MakeScene("kitti360", 2.0, 1.0, 4);
+  const GlobalBaResult result = RunGlobalBundleAdjustment(noisy.rig, noisy.map, false, GlobalBaOptions());
+  ASSERT_TRUE(result.ran);
+  for (const double knee : result.loss_knee_px) EXPECT_EQ(knee, 1.5);
+}
+
 TEST(GlobalBaTest, ScaleFreeProblemKeepsTheDistanceFromFirstToLastKeyframe) {
   // One camera: the map's unit is arbitrary (here 1.05 of the truth) and
   // must stay so; the shape is still refined.
@@ -391,6 +430,17 @@ TEST(GlobalBaTest, RefinedExtrinsicsRecoverACalibrationError) {
 }
 
 TEST(GlobalBaOptionsTest, CheckNamesTheField) {
+  GlobalBaOptions adaptive;
+  adaptive.adaptive_loss_min_px = 0.0;
+  try {
+    adaptive.Check();
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/refine/adaptive_loss_min_px"), std::string::npos) << e.what();
+  }
+  adaptive = GlobalBaOptions();
+  adaptive.adaptive_loss_sigmas = -1.0;
+  EXPECT_THROW(adaptive.Check(), InputError);
   GlobalBaOptions options;
   options.min_observations = 1;
   try {
