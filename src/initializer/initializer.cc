@@ -203,7 +203,7 @@ struct Initializer::Impl {
         count += s.passes ? 1 : 0;
         if (required[static_cast<size_t>(c)] && !s.passes) required_pass = false;
       }
-      if (count >= MinCamerasPassing()) {
+      if (count >= MinCamerasPassing() && (required_pass || relaxed_l < 0)) {
         std::vector<bool> passes(stats.size());
         for (size_t c = 0; c < stats.size(); ++c) passes[c] = stats[c].passes;
         if (required_pass) {
@@ -459,7 +459,7 @@ struct Initializer::Impl {
     const bool enough = static_cast<int>(used.size()) >= MinCamerasPassing();
     if (required_failed && enough && !Relaxed()) {
       ++blocked_windows;
-      reason = StrCat(failure, " (", used.size(), " other cameras would do", BlockedNote(), ")");
+      reason = StrCat(failure, " (", used.size(), " cameras would do", BlockedNote(), ")");
       return std::nullopt;
     }
     if (!enough) {
