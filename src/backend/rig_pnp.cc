@@ -117,6 +117,17 @@ Rigid3d Refine(const Rigid3d& world_from_rig, const std::vector<Rigid3d>& cam_fr
 
 }  // namespace
 
+int MinInlierIterations(int min_inliers, int num_correspondences, int sample_size, double confidence) {
+  if (num_correspondences <= 0 || min_inliers <= 0 || sample_size <= 0) return 1;
+  const double w = std::min(1.0, static_cast<double>(min_inliers) / num_correspondences);
+  const double miss = 1.0 - std::pow(w, sample_size);  // one sample is not all inliers
+  if (!(miss > 0.0)) return 1;
+  if (!(confidence > 0.0 && confidence < 1.0)) return std::numeric_limits<int>::max();
+  const double k = std::ceil(std::log(1.0 - confidence) / std::log(miss));
+  return k >= static_cast<double>(std::numeric_limits<int>::max()) ? std::numeric_limits<int>::max()
+                                                                     : std::max(1, static_cast<int>(k));
+}
+
 RigPnpResult SolveRigPnp(const std::vector<Rigid3d>& cam_from_rig,
                          const std::vector<RigPnpCorrespondence>& correspondences,
                          const RigPnpOptions& options, const Rigid3d* prior) {
@@ -176,6 +187,11 @@ RigPnpResult SolveRigPnp(const std::vector<Rigid3d>& cam_from_rig,
   ransac.sac_model_ = problem;
   ransac.threshold_ = threshold;
   ransac.max_iterations_ = options.max_iterations;
+  if (options.min_inlier_confidence > 0.0) {
+    ransac.max_iterations_ =
+        std::min(options.max_iterations, MinInlierIterations(options.min_inliers, static_cast<int>(usable.size()),
+                                                             kSampleSize, options.min_inlier_confidence));
+  }
   ransac.probability_ = 0.99;
 
   bool found = false;

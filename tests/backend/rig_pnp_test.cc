@@ -258,6 +258,64 @@ TEST(RigPnp, TooFewCorrespondencesOrInliersFail) {
   }
 }
 
+TEST(RigPnp, MinInlierIterationsIsTheSampleCountForTheNeededInliers) {
+  // ceil(log(1e-4) / log(1 - (40/n)^4)): 10, 42, 356 for n = 45, 60, 100.
+  EXPECT_EQ(MinInlierIterations(40, 45, 4, 0.9999), 10);
+  EXPECT_EQ(MinInlierIterations(40, 60, 4, 0.9999), 42);
+  EXPECT_EQ(MinInlierIterations(40, 100, 4, 0.9999), 356);
+  EXPECT_EQ(MinInlierIterations(40, 40, 4, 0.9999), 1);  // every correspondence must be an inlier
+  EXPECT_EQ(MinInlierIterations(40, 30, 4, 0.9999), 1);  // fewer than needed: nothing to find
+  EXPECT_GT(MinInlierIterations(12, 5000, 4, 0.9999), 1000000);
+  EXPECT_EQ(MinInlierIterations(12, 0, 4, 0.9999), 1);
+  EXPECT_EQ(MinInlierIterations(12, 60, 4, 1.0), std::numeric_limits<int>::max());
+}
+
+TEST(RigPnp, TheSampleCapStillFindsAPoseWithTheNeededInliers) {
+  // 40 inliers (1 px noise) and 20 outliers: the fewest inliers a caller
+  // with min_inliers 40 accepts. The cap (42 samples at 0.9999) must find
+  // the pose on every scene where the uncapped 1000 samples do (not on all
+  // 100: 1 px noise can put an inlier past the 4 px threshold, 39 < 40);
+  // with 30 inliers the pose is rejected either way.
+  const std::vector<Rigid3d> rig = RingRig();
+  int found_capped = 0, found_uncapped = 0, lost_to_cap = 0, found_30 = 0;
+  double worst_t = 0.0;
+  for (uint32_t seed = 100; seed < 200; ++seed) {
+    for (const int inliers : {40, 30}) {
+      std::mt19937 rng(seed);
+      Scene scene = MakeScene(rig, {{15, 15, 15, 15}, 30 * kDeg, 1.0}, &rng);
+      std::uniform_real_distribution<double> u(0.0, 1.0);
+      for (int k = inliers; k < 60; ++k) {  // the last 60 - inliers become outliers
+        const Eigen::Vector3d truth = scene.correspondences[static_cast<size_t>(k)].bearing;
+        Eigen::Vector3d outlier;
+        do {
+          outlier = BearingInCone(30 * kDeg, &rng);
+        } while (std::acos(std::clamp(outlier.dot(truth), -1.0, 1.0)) < std::atan(20.0 / kFocal));
+        scene.correspondences[static_cast<size_t>(k)].bearing = outlier;
+      }
+      RigPnpOptions options = Options(4.0);
+      options.min_inliers = 40;
+      options.max_iterations = 1000;
+      const RigPnpResult capped = SolveRigPnp(rig, scene.correspondences, options);
+      options.min_inlier_confidence = 0.0;
+      const RigPnpResult uncapped = SolveRigPnp(rig, scene.correspondences, options);
+      if (inliers == 30) {
+        found_30 += (capped.ok ? 1 : 0) + (uncapped.ok ? 1 : 0);
+        continue;
+      }
+      found_capped += capped.ok ? 1 : 0;
+      found_uncapped += uncapped.ok ? 1 : 0;
+      lost_to_cap += (uncapped.ok && !capped.ok) ? 1 : 0;
+      if (capped.ok) worst_t = std::max(worst_t, TranslationError(capped));
+    }
+  }
+  std::printf("40 of 60 inliers, 100 scenes: found %d capped, %d uncapped, worst |dt| %.4f m\n", found_capped,
+              found_uncapped, worst_t);
+  EXPECT_GE(found_uncapped, 95);
+  EXPECT_EQ(lost_to_cap, 0);
+  EXPECT_LT(worst_t, 0.1);
+  EXPECT_EQ(found_30, 0);
+}
+
 TEST(RigPnp, DeterministicRuns) {
   std::mt19937 rng(5);
   const std::vector<Rigid3d> rig = RingRig();

@@ -33,6 +33,11 @@ struct RigPnpOptions {
   double focal_px = 460.0;
   int max_iterations = 300;        // RANSAC (stops earlier at 99 % confidence)
   int min_inliers = 12;            // fewer: ok = false (at least 4, GP3P's sample)
+  // RANSAC also stops after the number of samples that finds, with this
+  // confidence, an outlier-free sample of any pose with min_inliers inliers
+  // (MinInlierIterations): a pose with fewer would be rejected anyway, so
+  // further samples could only find what the caller refuses. 0: no such cap.
+  double min_inlier_confidence = 0.9999;
   int max_refine_iterations = 20;  // Ceres iterations per refinement round
 };
 
@@ -56,6 +61,15 @@ struct RigPnpResult {
 // usable correspondences, RANSAC finds no model, or fewer than min_inliers
 // inliers remain (world_from_rig and inliers are still filled then, for
 // diagnostics, when a model was found).
+// Samples after which RANSAC has drawn, with probability >= confidence, at
+// least one sample of sample_size correspondences that are all inliers of a
+// pose with min_inliers inliers among num_correspondences:
+// ceil(log(1 - confidence) / log(1 - w^sample_size)), w = min_inliers /
+// num_correspondences; at least 1. (Loop verification needs 40 inliers:
+// among 60 matches that is 42 samples at 0.9999, among 100 it is 356, not
+// the 1000 of its cap.)
+int MinInlierIterations(int min_inliers, int num_correspondences, int sample_size, double confidence);
+
 RigPnpResult SolveRigPnp(const std::vector<Rigid3d>& cam_from_rig,
                          const std::vector<RigPnpCorrespondence>& correspondences,
                          const RigPnpOptions& options, const Rigid3d* prior = nullptr);
