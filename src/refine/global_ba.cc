@@ -206,7 +206,7 @@ class GlobalProblem {
   bool Counts(const Observation& o) const { return o.active && landmark_used_[static_cast<size_t>(o.landmark)]; }
 
   // One Ceres solve over the active observations.
-  ceres::Solver::Summary Solve(int* components, int* constraints_used) {
+  ceres::Solver::Summary Solve(double function_tolerance, int* components, int* constraints_used) {
     ceres::Problem::Options problem_options;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -264,7 +264,7 @@ class GlobalProblem {
     solver_options.linear_solver_ordering = ordering;
     solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
     solver_options.max_num_iterations = options_.max_iterations;
-    solver_options.function_tolerance = options_.function_tolerance;
+    solver_options.function_tolerance = function_tolerance;
     solver_options.num_threads = 1;  // see global_ba.h: the Schur reduction's sums must not depend on threads
     solver_options.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
@@ -517,6 +517,7 @@ class GlobalProblem {
 void GlobalBaOptions::Check() const {
   CheckAtLeast("/refine/max_iterations", max_iterations, 1);
   CheckAtLeast("/refine/outlier_rounds", outlier_rounds, 0);
+  CheckPositive("/refine/first_solve_function_tolerance", first_solve_function_tolerance);
   CheckPositive("/refine/loss_scale", loss_scale);
   CheckAtLeast("/refine/adaptive_loss_sigmas", adaptive_loss_sigmas, 0.0);
   CheckPositive("/refine/adaptive_loss_min_px", adaptive_loss_min_px);
@@ -558,7 +559,13 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
   const bool adaptive = options.adaptive_loss_sigmas > 0.0;
   for (int round = 0; round <= options.outlier_rounds; ++round) {
     result.loss_knee_px.push_back(problem.KneePx());
-    const ceres::Solver::Summary summary = problem.Solve(&result.components, &result.constraints_used);
+    // global_ba.h "Solves": a solve that another follows only has to bring
+    // the errors near their final size for the outlier test and the knee
+    // measured from them; the last one converges fully.
+    const bool short_solve =
+        round < options.outlier_rounds && options.first_solve_function_tolerance > options.function_tolerance;
+    const double tolerance = short_solve ? options.first_solve_function_tolerance : options.function_tolerance;
+    const ceres::Solver::Summary summary = problem.Solve(tolerance, &result.components, &result.constraints_used);
     if (round == 0) result.initial_cost = summary.initial_cost;
     result.final_cost = summary.final_cost;
     result.iterations += static_cast<int>(summary.iterations.size()) - 1;
@@ -571,7 +578,8 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
     if (removed > 0 && !problem.SelectActive()) break;
     // global_ba.h "Robust loss": the next knee from this solve's residuals.
     const double knee = adaptive ? problem.MeasuredKneePx() : problem.KneePx();
-    if (removed == 0 && !(knee < problem.KneePx())) break;  // the same problem again: nothing to gain
+    // The same problem again: nothing to gain, unless this solve was cut short.
+    if (removed == 0 && !(knee < problem.KneePx()) && !short_solve) break;
     problem.SetKneePx(knee);
   }
   result.ran = true;

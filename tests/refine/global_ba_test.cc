@@ -271,6 +271,60 @@ TEST(GlobalBaTest, TheSecondSolvesKneeFollowsTheMeasuredNoise) {
   for (const double knee : result.loss_knee_px) EXPECT_EQ(knee, 1.5);
 }
 
+// global_ba.h "Solves": the first solve stops at the looser
+// first_solve_function_tolerance when another follows; the result is as
+// good as with a full first solve, and a loose solve is never the last.
+TEST(GlobalBaTest, ALooseFirstSolveGivesTheSameResultAndIsNeverTheLast) {
+  Scene scene = MakeScene("kitti360", 0.3, 1.03, 6);
+  for (MapKeyframe& kf : scene.map.keyframes) {
+    for (size_t i = 0; i < kf.observations.size(); i += 30) kf.observations[i].pixel += Eigen::Vector2d(-20.0, 25.0);
+  }
+  GlobalBaOptions full;
+  full.first_solve_function_tolerance = full.function_tolerance;
+  const GlobalBaResult a = RunGlobalBundleAdjustment(scene.rig, scene.map, false, full);
+  const GlobalBaResult b = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  ASSERT_TRUE(a.ran && b.ran);
+  ASSERT_EQ(a.solves, 2);
+  ASSERT_EQ(b.solves, 2);
+  const double error_a = MaxPositionError(a.map, scene.truth), error_b = MaxPositionError(b.map, scene.truth);
+  std::printf("first solve to %g / %g: %d / %d iterations in all, max position error %.4f / %.4f m, "
+              "route scale %.5f / %.5f, %d / %d observations removed\n",
+              full.function_tolerance, GlobalBaOptions().first_solve_function_tolerance, a.iterations, b.iterations, error_a,
+              error_b, RouteScale(a.map, scene.truth), RouteScale(b.map, scene.truth), a.observations_removed,
+              b.observations_removed);
+  EXPECT_LT(b.iterations, a.iterations);
+  EXPECT_LT(error_b, 0.05);
+  EXPECT_NEAR(error_b, error_a, 0.005);
+  EXPECT_NEAR(RouteScale(b.map, scene.truth), RouteScale(a.map, scene.truth), 1e-3);
+  EXPECT_EQ(b.observations_removed, a.observations_removed);
+
+  // Nothing removed and a knee that would not tighten (2 px of noise): a
+  // full first solve is the last; a short one is continued by a second.
+  const Scene noisy = MakeScene("kitti360", 2.0, 1.03, 6);
+  GlobalBaOptions keep_all;
+  keep_all.outlier_threshold_px = 1000.0;
+  keep_all.first_solve_function_tolerance = 0.5;  // stops after an iteration or two
+  const GlobalBaResult short_first = RunGlobalBundleAdjustment(noisy.rig, noisy.map, false, keep_all);
+  keep_all.first_solve_function_tolerance = keep_all.function_tolerance;
+  const GlobalBaResult full_first = RunGlobalBundleAdjustment(noisy.rig, noisy.map, false, keep_all);
+  ASSERT_TRUE(short_first.ran && full_first.ran);
+  EXPECT_EQ(full_first.solves, 1);
+  EXPECT_EQ(short_first.solves, 2);
+  EXPECT_EQ(short_first.observations_removed, 0);
+  EXPECT_NEAR(MaxPositionError(short_first.map, noisy.truth), MaxPositionError(full_first.map, noisy.truth), 0.01);
+
+  // One solve only (outlier_rounds 0): it is the last, never loose.
+  GlobalBaOptions single;
+  single.outlier_rounds = 0;
+  single.first_solve_function_tolerance = 0.5;
+  const GlobalBaResult one = RunGlobalBundleAdjustment(scene.rig, scene.map, false, single);
+  single.first_solve_function_tolerance = single.function_tolerance;
+  const GlobalBaResult one_full = RunGlobalBundleAdjustment(scene.rig, scene.map, false, single);
+  EXPECT_EQ(one.solves, 1);
+  EXPECT_EQ(one.iterations, one_full.iterations);
+  EXPECT_GT(one.iterations, 1);
+}
+
 TEST(GlobalBaTest, ScaleFreeProblemKeepsTheDistanceFromFirstToLastKeyframe) {
   // One camera: the map's unit is arbitrary (here 1.05 of the truth) and
   // must stay so; the shape is still refined.
@@ -441,6 +495,14 @@ TEST(GlobalBaOptionsTest, CheckNamesTheField) {
   adaptive = GlobalBaOptions();
   adaptive.adaptive_loss_sigmas = -1.0;
   EXPECT_THROW(adaptive.Check(), InputError);
+  GlobalBaOptions first;
+  first.first_solve_function_tolerance = 0.0;
+  try {
+    first.Check();
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/refine/first_solve_function_tolerance"), std::string::npos) << e.what();
+  }
   GlobalBaOptions options;
   options.min_observations = 1;
   try {
