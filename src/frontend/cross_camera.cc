@@ -28,6 +28,7 @@
 
 #include "mcvo/dataset/overlap.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/parallel.h"
 
 namespace mcvo {
 namespace {
@@ -78,7 +79,7 @@ CrossCameraCheck CheckCrossCameraBearings(const Eigen::Vector3d& bearing_a, cons
 }
 
 CrossCameraMatcher::CrossCameraMatcher(int camera_a, int camera_b, const Camera& a, const Camera& b,
-                                       const cv::Mat& mask_b, const FrontendOptions& options)
+                                       const cv::Mat& mask_b, const FrontendOptions& options, int threads)
     : camera_a_(camera_a), camera_b_(camera_b), a_(a), b_(b), mask_b_(mask_b.clone()), options_(options) {
   MCVO_CHECK(mask_b.empty() ||
              (mask_b.type() == CV_8UC1 && mask_b.cols == b.width && mask_b.rows == b.height));
@@ -94,23 +95,28 @@ CrossCameraMatcher::CrossCameraMatcher(int camera_a, int camera_b, const Camera&
   // matched pixel itself is computed exactly, W(p).
   cv::Mat map_x(a.height, a.width, CV_32FC1), map_y(a.height, a.width, CV_32FC1);
   unseen_ = cv::Mat::zeros(a.height, a.width, CV_8UC1);
-  for (int y = 0; y < a.height; ++y) {
-    float* mx = map_x.ptr<float>(y);
-    float* my = map_y.ptr<float>(y);
-    uint8_t* unseen = unseen_.ptr<uint8_t>(y);
-    for (int x = 0; x < a.width; ++x) {
-      const std::optional<Eigen::Vector2d> q = Warp(Eigen::Vector2d(x, y));
-      const cv::Point2f p =
-          q ? cv::Point2f(static_cast<float>(q->x()), static_cast<float>(q->y())) : cv::Point2f();
-      if (q && UsableInB(p)) {
-        mx[x] = p.x;
-        my[x] = p.y;
-      } else {
-        mx[x] = my[x] = 0.0f;
-        unseen[x] = 255;
+  constexpr int kRowsPerBlock = 16;  // each pixel's value is its own: any split gives the same maps
+  const int blocks = (a.height + kRowsPerBlock - 1) / kRowsPerBlock;
+  ParallelFor(blocks, threads, [&](int block) {
+    const int end = std::min(a.height, (block + 1) * kRowsPerBlock);
+    for (int y = block * kRowsPerBlock; y < end; ++y) {
+      float* mx = map_x.ptr<float>(y);
+      float* my = map_y.ptr<float>(y);
+      uint8_t* unseen = unseen_.ptr<uint8_t>(y);
+      for (int x = 0; x < a.width; ++x) {
+        const std::optional<Eigen::Vector2d> q = Warp(Eigen::Vector2d(x, y));
+        const cv::Point2f p =
+            q ? cv::Point2f(static_cast<float>(q->x()), static_cast<float>(q->y())) : cv::Point2f();
+        if (q && UsableInB(p)) {
+          mx[x] = p.x;
+          my[x] = p.y;
+        } else {
+          mx[x] = my[x] = 0.0f;
+          unseen[x] = 255;
+        }
       }
     }
-  }
+  });
   cv::convertMaps(map_x, map_y, map_xy_, map_fraction_, CV_16SC2);
 }
 

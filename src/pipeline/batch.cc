@@ -469,7 +469,8 @@ std::optional<std::string> RunOutOfDateReason(const fs::path& run_dir, const Bat
   const int frames = spec.max_frames > 0 ? std::min(spec.max_frames, dataset_frames) : dataset_frames;
   if (run->dataset.frames != frames) return StrCat("frame count changed (now ", frames, ")");
   if (!run->Has("inputs")) return std::string("run.json lists no inputs");
-  const auto current = HashRunInputs(index, spec.tracks, frames, RunVocabularyPath(options));
+  const auto current =
+      HashRunInputs(index, spec.tracks, frames, RunVocabularyPath(options), options.runtime.threads);
   if (run->inputs.size() != current.size()) return std::string("inputs changed");
   for (const auto& [key, hash] : current) {
     auto it = run->inputs.find(key);

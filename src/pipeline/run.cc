@@ -109,20 +109,29 @@ std::filesystem::path RunVocabularyPath(const PipelineOptions& options) {
 std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetIndex& index,
                                                                const std::filesystem::path& tracks,
                                                                int frames,
-                                                               const std::filesystem::path& vocabulary) {
+                                                               const std::filesystem::path& vocabulary,
+                                                               int threads) {
   std::vector<std::pair<std::string, std::string>> inputs;
   inputs.emplace_back("rig_sha256", Sha256Hex(RigToJson(index.rig, index.root)));
   if (!tracks.empty()) {
     inputs.emplace_back("tracks_sha256", Sha256File(tracks));
   } else {
-    // One hash over the per-image hashes, in frame and camera order.
-    Sha256 images;
+    // One hash over the per-image hashes, in frame and camera order; the
+    // files are hashed on `threads` threads, each into its own slot.
     const int n = std::min(frames, static_cast<int>(index.frames.size()));
+    std::vector<const std::filesystem::path*> paths;
     for (int f = 0; f < n; ++f) {
-      for (const std::filesystem::path& path : index.frames[f].images) {
-        images.Update(path.empty() ? std::string("missing") : Sha256File(path));
-        images.Update("\n");
-      }
+      for (const std::filesystem::path& path : index.frames[f].images) paths.push_back(&path);
+    }
+    std::vector<std::string> hashes(paths.size());
+    ParallelFor(static_cast<int>(paths.size()), threads, [&](int i) {
+      const std::filesystem::path& path = *paths[static_cast<size_t>(i)];
+      hashes[static_cast<size_t>(i)] = path.empty() ? std::string("missing") : Sha256File(path);
+    });
+    Sha256 images;
+    for (const std::string& hash : hashes) {
+      images.Update(hash);
+      images.Update("\n");
     }
     inputs.emplace_back("images_sha256", images.HexDigest());
   }

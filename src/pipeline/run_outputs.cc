@@ -540,7 +540,8 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
   run.dataset.frames = in.total_frames;
   for (const Camera& camera : rig.cameras) run.dataset.cameras.push_back(camera.name);
   const DatasetIndex& opened = in.opened != nullptr ? *in.opened : index;
-  for (const auto& [key, hash] : HashRunInputs(opened, request.tracks, in.total_frames, in.vocabulary_path)) {
+  for (const auto& [key, hash] :
+       HashRunInputs(opened, request.tracks, in.total_frames, in.vocabulary_path, in.threads)) {
     run.inputs[key] = hash;
   }
   const Json outputs = OutputsSha256(dir);

@@ -101,11 +101,13 @@ RunSummary RunPipeline(const RunRequest& request);
 // Reads the input files but decodes nothing, so `mcvo batch` can tell
 // whether a finished run is up to date without running it again.
 // Then "vocabulary_sha256" when `vocabulary` is not empty (loop closure's
-// bag-of-words vocabulary: RunVocabularyPath).
+// bag-of-words vocabulary: RunVocabularyPath). The images are hashed on
+// `threads` threads (0: all cores); the hashes do not depend on it.
 std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetIndex& index,
                                                                const std::filesystem::path& tracks,
                                                                int frames,
-                                                               const std::filesystem::path& vocabulary = {});
+                                                               const std::filesystem::path& vocabulary = {},
+                                                               int threads = 1);
 
 // The vocabulary file a run with these options reads: empty when loop
 // closure is off, the built-in one when none is configured.
