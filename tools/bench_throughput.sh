@@ -127,11 +127,12 @@ print("## Profile: full resolution, 4 cameras, Shi-Tomasi\n")
 print("Seconds per frame by stage. Frontend stages from `mcvo track --timing` (summed over the cameras: the work "
       "of one frame on one core); back end and the rest from run.json's timing section (per frame, or per "
       "keyframe / in total where named).\n")
-stages = ["decode_wait", "pyramid", "lk", "detection", "ransac", "selection", "cross_camera", "track_wall", "total"]
+stages = ["decode_wait", "pyramid", "lk", "detection", "ransac", "anchor", "selection", "cross_camera", "track_wall",
+          "total"]
 run_keys = ["frontend_s", "initializer_s", "pnp_s", "ba_s", "marginalization_s", "scale_correction_s", "backend_s",
             "loop_image_read_s_per_keyframe", "loop_features_s_per_keyframe", "loop_query_s_per_keyframe",
             "loop_verification_s_per_keyframe", "pose_graph_s_total", "reverse_pass_s_total",
-            "odometry_s_total", "colmap_export_s_total", "seconds_total"]
+            "odometry_s_total", "global_ba_s_total", "colmap_export_s_total", "seconds_total"]
 cols = [t for t in ("1", threads) if os.path.exists(os.path.join(scratch, f"track_1_kitti360_4cam_shi_tomasi_t{t}.json"))]
 cols = list(dict.fromkeys(cols))
 print("| stage | " + " | ".join(f"{t} thread(s)" for t in cols) + " |")
