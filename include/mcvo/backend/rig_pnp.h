@@ -51,6 +51,15 @@ struct RigPnpResult {
   double rms_error_px = 0.0;            // inliers, after refinement, at focal_px
 };
 
+// Samples after which RANSAC has drawn, with probability >= confidence, at
+// least one sample of sample_size correspondences that are all inliers of a
+// pose with min_inliers inliers among num_correspondences:
+// ceil(log(1 - confidence) / log(1 - w^sample_size)), w = min_inliers /
+// num_correspondences; at least 1. (Loop verification needs 40 inliers:
+// among 60 matches that is 42 samples at 0.9999, among 100 it is 356, not
+// the 1000 of its cap.)
+int MinInlierIterations(int min_inliers, int num_correspondences, int sample_size, double confidence);
+
 // cam_from_rig: one extrinsic per rig camera; every correspondence's camera
 // must index it (checked). Correspondences with a non-finite or zero bearing
 // or point are never inliers. With a prior pose (prior != nullptr) RANSAC also
@@ -61,15 +70,6 @@ struct RigPnpResult {
 // usable correspondences, RANSAC finds no model, or fewer than min_inliers
 // inliers remain (world_from_rig and inliers are still filled then, for
 // diagnostics, when a model was found).
-// Samples after which RANSAC has drawn, with probability >= confidence, at
-// least one sample of sample_size correspondences that are all inliers of a
-// pose with min_inliers inliers among num_correspondences:
-// ceil(log(1 - confidence) / log(1 - w^sample_size)), w = min_inliers /
-// num_correspondences; at least 1. (Loop verification needs 40 inliers:
-// among 60 matches that is 42 samples at 0.9999, among 100 it is 356, not
-// the 1000 of its cap.)
-int MinInlierIterations(int min_inliers, int num_correspondences, int sample_size, double confidence);
-
 RigPnpResult SolveRigPnp(const std::vector<Rigid3d>& cam_from_rig,
                          const std::vector<RigPnpCorrespondence>& correspondences,
                          const RigPnpOptions& options, const Rigid3d* prior = nullptr);

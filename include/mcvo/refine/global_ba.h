@@ -104,8 +104,8 @@
 // test and the measured knee. Measured with first solves of 20 iterations
 // against this, on 8 suite sequences (4-, 2-, 3-, 6-, 5-camera, triple and
 // roof rigs, 300 frames each, no loop): ATE and scale error as they were
-// (largest change 0.003 % of the path), 6-13 first-solve iterations
-// instead of 20, global BA time -15 to -40 %; on an 808-keyframe block
+// (largest change 0.002 % of the path), 6-13 first-solve iterations
+// instead of 20, global BA time -13 to -40 %; on an 808-keyframe block
 // driven 1.5 times (269 loops, 14 px rms after the pose graph): 12
 // iterations, ATE 0.075 against 0.074 m. Fixed cuts were worse there: 4
 // iterations gave 0.078 m (more observations removed as outliers before
