@@ -31,6 +31,8 @@ void Visit(V& v, LkOptions* o) {
   v.Field("max_iterations", &o->max_iterations);
   v.Field("forward_backward_check", &o->forward_backward_check);
   v.Field("forward_backward_threshold_px", &o->forward_backward_threshold_px);
+  v.Field("predict_rotation", &o->predict_rotation);
+  v.Field("predict_rotation_min_px", &o->predict_rotation_min_px);
 }
 
 template <typename V>

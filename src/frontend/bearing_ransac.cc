@@ -3,6 +3,7 @@
 #include <cmath>
 #include <memory>
 
+#include <Eigen/SVD>
 #include <opengv/relative_pose/CentralRelativeAdapter.hpp>
 #include <opengv/sac/Ransac.hpp>
 #include <opengv/sac_problems/relative_pose/CentralRelativePoseSacProblem.hpp>
@@ -85,6 +86,22 @@ std::vector<bool> RansacRelativePoseInliers(const std::vector<Eigen::Vector3d>& 
   options.threshold = 1.0 - std::cos(threshold_angle_rad);
   options.max_iterations = max_iterations;
   return RansacRelativePoseInliers(bearings_prev, bearings_cur, options);
+}
+
+std::optional<Eigen::Matrix3d> FitBearingRotation(const std::vector<Eigen::Vector3d>& prev,
+                                                  const std::vector<Eigen::Vector3d>& cur) {
+  MCVO_CHECK_MSG(prev.size() == cur.size(), "FitBearingRotation: ", prev.size(), " vs ", cur.size(), " bearings");
+  if (prev.size() < 3) return std::nullopt;
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  for (size_t i = 0; i < prev.size(); ++i) sum += cur[i] * prev[i].transpose();
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Vector3d& sigma = svd.singularValues();
+  if (!(sigma(1) > 1e-9 * sigma(0))) return std::nullopt;
+  Eigen::Vector3d d(1.0, 1.0, 1.0);
+  if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0.0) d(2) = -1.0;
+  const Eigen::Matrix3d rotation = svd.matrixU() * d.asDiagonal() * svd.matrixV().transpose();
+  if (!rotation.allFinite()) return std::nullopt;
+  return rotation;
 }
 
 }  // namespace mcvo

@@ -114,7 +114,7 @@ TEST(Config, UnknownKeysAreRejectedAtAnyDepth) {
   EXPECT_EQ(
       ErrorOf(R"({"frontend": {"lk": {"window": 21}}})"),
       "c.json: /frontend/lk/window: unknown key (valid keys: window_px, pyramid_levels, max_iterations, "
-      "forward_backward_check, forward_backward_threshold_px)");
+      "forward_backward_check, forward_backward_threshold_px, predict_rotation, predict_rotation_min_px)");
   EXPECT_EQ(ErrorOf(R"({"frontnd": {}})"),
             "c.json: /frontnd: unknown key (valid keys: dataset, frontend, initializer, backend, loop, "
             "refine, output, colmap, runtime, eval)");

@@ -133,5 +133,29 @@ TEST(BearingRansacTest, TooFewCorrespondencesKeepsAll) {
   EXPECT_TRUE(RansacRelativePoseInliers({}, {}, BearingRansacOptions()).empty());
 }
 
+// The rotation fit (the tracker's prediction): exact on a pure rotation,
+// the rotation part within the noise when the camera barely translates
+// relative to the depths, nothing from degenerate input.
+TEST(BearingRansacTest, FitBearingRotationRecoversTheRotation) {
+  const Eigen::Matrix3d rotation =
+      Eigen::AngleAxisd(0.2, Eigen::Vector3d(0.3, 1.0, -0.2).normalized()).toRotationMatrix();
+  const Correspondences pure = MakeCorrespondences(rotation, Eigen::Vector3d::Zero(), 100, 0.0, 7);
+  const auto fitted = FitBearingRotation(pure.prev, pure.cur);
+  ASSERT_TRUE(fitted.has_value());
+  const double error_rad = Eigen::AngleAxisd(*fitted * rotation.transpose()).angle();
+  EXPECT_LT(error_rad, 0.1 / 460.0);  // 0.1 px at 460 px: the noise averaged over 100 bearings
+  EXPECT_NEAR(fitted->determinant(), 1.0, 1e-12);
+
+  // 5 cm of translation against depths of 2-40 m: within 0.5 deg.
+  const Correspondences moved = MakeCorrespondences(rotation, Eigen::Vector3d(0.05, 0.0, 0.0), 100, 0.0, 8);
+  const auto approximate = FitBearingRotation(moved.prev, moved.cur);
+  ASSERT_TRUE(approximate.has_value());
+  EXPECT_LT(Eigen::AngleAxisd(*approximate * rotation.transpose()).angle(), 0.5 * M_PI / 180.0);
+
+  EXPECT_FALSE(FitBearingRotation({}, {}).has_value());
+  const std::vector<Eigen::Vector3d> same(5, Eigen::Vector3d::UnitZ());
+  EXPECT_FALSE(FitBearingRotation(same, same).has_value());  // rank 1: the roll about the ray is free
+}
+
 }  // namespace
 }  // namespace mcvo

@@ -20,6 +20,7 @@
 // is the angle atan(e / f): BearingThresholdFromPixels.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -52,5 +53,13 @@ std::vector<bool> RansacRelativePoseInliers(const std::vector<Eigen::Vector3d>& 
 std::vector<bool> RansacRelativePoseInliers(const std::vector<Eigen::Vector3d>& bearings_prev,
                                             const std::vector<Eigen::Vector3d>& bearings_cur,
                                             double threshold_angle_rad, int max_iterations);
+
+// The rotation R minimising sum |cur_i - R prev_i|^2 over unit bearings
+// (Kabsch / Arun: SVD of sum cur_i prev_i^T, determinant fixed to +1).
+// With translation the fit also takes up the part of the flow a rotation
+// explains; as a prediction of the next frame's flow that is what is wanted.
+// Nullopt for fewer than 3 pairs or a degenerate (rank < 2) set.
+std::optional<Eigen::Matrix3d> FitBearingRotation(const std::vector<Eigen::Vector3d>& prev,
+                                                  const std::vector<Eigen::Vector3d>& cur);
 
 }  // namespace mcvo

@@ -41,6 +41,17 @@ struct LkOptions {
   int max_iterations = 30;             // per level
   bool forward_backward_check = true;  // track back and reject points that do not return
   double forward_backward_threshold_px = 0.5;
+  // Start LK at each feature's bearing rotated by the camera's rotation of
+  // the previous frame (constant angular velocity; camera_tracker.h), and
+  // the backward LK at the inverse rotation of the forward result, instead
+  // of at the previous position: a turn of 7 deg per frame moves a 460 px
+  // focal image by 56 px, beyond LK's reach from the previous position.
+  // Only when that rotation moves the image by at least
+  // predict_rotation_min_px (angle x the camera's mean focal length):
+  // slower turns, which LK follows from the previous position, are tracked
+  // as without the prediction.
+  bool predict_rotation = true;
+  double predict_rotation_min_px = 16.0;
 };
 
 // Anchor check of LK tracks (include/mcvo/frontend/patch_aligner.h): every
