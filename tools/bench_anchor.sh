@@ -6,7 +6,7 @@
 #   2. mcvo_bench_track_truth on each: the tracked pixels' error against the
 #      renderer's projection of the point each feature was detected on, per
 #      camera and track length, and a third track file with those true
-#      pixels;
+#      pixels (cross-camera matches too);
 #   3. `mcvo run --tracks` on the three track files: ATE and scale error of
 #      the same pipeline on LK alone, on the anchored tracks, and on the
 #      true pixels of the LK features (what tracking error costs).
@@ -58,8 +58,11 @@ PY
   echo "Tracking error: the tracked pixel against the projection of the 3-D point the feature was"
   echo "detected on (static scene only), by track length (frames since detection, detection = 1);"
   echo "\"along motion\": the error's component along the feature's image motion since detection"
-  echo "(positive: ahead of the truth). Runs: \`mcvo run --tracks\` with the rig's config on the LK-only"
-  echo "tracks, the anchored tracks, and the LK-only features moved to their true pixels."
+  echo "(positive: ahead of the truth). Cross-camera matches (rigs with overlapping views): the matched"
+  echo "pixel in camera b against where b sees the point camera a's ray hits at a's tracked pixel, and the"
+  echo "signed error of the depth the match triangulates (the metric scale it lends the back end)."
+  echo "Runs: \`mcvo run --tracks\` with the rig's config on the LK-only tracks, the anchored tracks, and"
+  echo "the LK-only features (and their cross-camera matches) moved to their true pixels."
   echo
 } > "$OUT"
 

@@ -13,8 +13,14 @@
 // the median of its component along the feature's motion since it was
 // detected (a systematic overshoot or lag shows there).
 //
+// Cross-camera matches (version 2 and later): per camera pair, the error of
+// the matched pixel against the projection into camera b of the point camera
+// a's feature was detected on, and the signed error of the depth the match
+// triangulates relative to that point's depth (a bias there is a bias of the
+// metric scale the matches give).
+//
 // TRUE_TRACKS (optional): the same track file with every observation after
-// the first replaced by that projection (features on moving objects or
+// the first, and every cross-camera match, replaced by that projection (features on moving objects or
 // leaving the camera's model keep their tracked pixels): `mcvo run --tracks`
 // on it shows what the back end makes of the same features without
 // tracking error.
@@ -77,11 +83,19 @@ int Run(const std::string& dataset, const std::string& tracks, const std::string
   const std::vector<int> lengths = {2, 3, 5, 9, 17, 33};
   std::map<std::pair<size_t, uint64_t>, FirstSight> first_sight;
   std::map<std::pair<size_t, int>, std::vector<double>> errors, along;
+  struct CrossStats {
+    std::vector<double> errors, relative_depth;
+  };
+  std::map<std::pair<size_t, size_t>, CrossStats> cross;  // (camera a, camera b)
   std::optional<mcvo::TrackFileWriter> writer;
   if (!true_tracks.empty()) writer.emplace(true_tracks, header);
   while (std::optional<mcvo::MultiCameraFrame> frame = reader.Next()) {
     const size_t index = static_cast<size_t>(frame->frame_index);
     if (index >= gt.poses.size()) MCVO_THROW_INPUT(tracks, ": frame ", index, " has no ground-truth pose");
+    std::map<std::pair<size_t, uint64_t>, Eigen::Vector2f> a_pixels;  // as tracked (TRUE_TRACKS replaces them)
+    for (size_t c = 0; c < frame->cameras.size(); ++c) {
+      for (const mcvo::TrackedFeature& f : frame->cameras[c].features) a_pixels[{c, f.id}] = f.pixel;
+    }
     for (size_t c = 0; c < frame->cameras.size(); ++c) {
       const Camera& camera = *cameras[c];
       const Rigid3d world_from_cam = gt.poses[index].world_from_body * camera.cam_from_rig.Inverse();
@@ -117,6 +131,51 @@ int Run(const std::string& dataset, const std::string& tracks, const std::string
         if (motion.norm() > 1.0f) along[{c, l}].push_back(error.dot(motion.normalized()));
       }
     }
+    // Cross-camera matches against the projection into camera b of the
+    // point camera a's feature was detected on; the signed error of the
+    // depth the match triangulates (a's ray at its current pixel, b's at the
+    // matched pixel, midpoint) relative to that point's depth along a's ray
+    // is the scale the match would lend the back end.
+    for (mcvo::CrossCameraMatch& m : frame->cross_matches) {
+      const size_t a = static_cast<size_t>(m.camera_a), b = static_cast<size_t>(m.camera_b);
+      if (a >= cameras.size() || b >= cameras.size()) continue;
+      const auto it = first_sight.find({a, m.id_a});
+      if (it == first_sight.end() || !it->second.on_static_scene) continue;
+      const Rigid3d world_from_rig = gt.poses[index].world_from_body;
+      const Rigid3d b_from_world = (world_from_rig * cameras[b]->cam_from_rig.Inverse()).Inverse();
+      const Rigid3d world_from_a = world_from_rig * cameras[a]->cam_from_rig.Inverse();
+      // TRUE_TRACKS: the projection of the point a's feature was detected
+      // on (a's pixel was replaced by its projection above). The errors: the
+      // point a's ray hits at the pixel a tracked (bearing_a in the frame
+      // where its pixel was read), so a's own tracking error stays out.
+      const auto truth = cameras[b]->Project(b_from_world * it->second.point);
+      if (!truth) continue;
+      if (writer) m.pixel_b = truth->cast<float>();
+      const auto bearing_a = cameras[a]->Unproject(a_pixels[{a, m.id_a}].cast<double>());
+      if (!bearing_a) continue;
+      const auto hit = world.scene.Intersect(world_from_a.translation, world_from_a.rotation * *bearing_a,
+                                             frame->t_ns - first_t_ns);
+      if (!hit || hit->moving_object >= 0) continue;
+      const auto seen = cameras[b]->Project(b_from_world * hit->point);
+      if (!seen) continue;
+      CrossStats& stats = cross[{a, b}];
+      const Eigen::Vector2f matched = writer ? truth->cast<float>() : m.pixel_b;
+      stats.errors.push_back((matched - seen->cast<float>()).norm());
+      const auto bearing_b = cameras[b]->Unproject(matched.cast<double>());
+      if (bearing_b) {
+        // In a's frame: a's centre at 0, b's at t; rays r_a, r_b.
+        const Rigid3d a_from_b = cameras[a]->cam_from_rig * cameras[b]->cam_from_rig.Inverse();
+        const Eigen::Vector3d ra = bearing_a->normalized(), rb = a_from_b.rotation * bearing_b->normalized();
+        const Eigen::Vector3d t = a_from_b.translation;
+        const double k = ra.dot(rb);
+        const double denominator = 1.0 - k * k;
+        if (denominator > 1e-12) {
+          const double da = (ra.dot(t) - k * rb.dot(t)) / denominator;
+          const double true_depth = (hit->point - world_from_a.translation).norm();
+          if (da > 0.0 && true_depth > 0.0) stats.relative_depth.push_back(da / true_depth - 1.0);
+        }
+      }
+    }
     if (writer) writer->Write(*frame);
   }
   if (writer) writer->Commit();
@@ -129,6 +188,16 @@ int Run(const std::string& dataset, const std::string& tracks, const std::string
       std::printf("| %s | %d | %zu | %.3f | %.3f | %.3f | %+.3f |\n", cameras[c]->name.c_str(), lengths[l], e.size(),
                   Quantile(e, 0.5), Quantile(e, 0.75), Quantile(e, 0.9),
                   Quantile(along[{c, static_cast<int>(l)}], 0.5));
+    }
+  }
+  if (!cross.empty()) {
+    std::printf("\n| cross-camera pair | matches | median px | p90 px | depth error, median %% | p10 %% | p90 %% |\n");
+    std::printf("|---|---|---|---|---|---|---|\n");
+    for (const auto& [pair, stats] : cross) {
+      std::printf("| %s - %s | %zu | %.3f | %.3f | %+.3f | %+.3f | %+.3f |\n", cameras[pair.first]->name.c_str(),
+                  cameras[pair.second]->name.c_str(), stats.errors.size(), Quantile(stats.errors, 0.5),
+                  Quantile(stats.errors, 0.9), 100.0 * Quantile(stats.relative_depth, 0.5),
+                  100.0 * Quantile(stats.relative_depth, 0.1), 100.0 * Quantile(stats.relative_depth, 0.9));
     }
   }
   return 0;
