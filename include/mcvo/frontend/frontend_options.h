@@ -62,7 +62,7 @@ struct LkOptions {
 struct AnchorOptions {
   bool enabled = true;
   int half_size_px = 10;         // template of (2 h + 1)^2 pixels
-  double weight_sigma_px = 5.0;  // Gaussian weight of the template around the feature; 0: uniform
+  double weight_sigma_px = 3.0;  // Gaussian weight of the template around the feature; 0: uniform
   int max_iterations = 30;
   double min_zncc = 0.8;       // smallest normalised cross-correlation after alignment
   double max_shift_px = 3.0;   // largest move from the LK position

@@ -32,9 +32,11 @@ struct PatchAlignOptions {
   int half_size_px = 10;  // template of (2 h + 1)^2 pixels
   // Gaussian weight of the template pixels around the feature (standard
   // deviation, pixels); 0: uniform. A patch on a depth edge (a corner
-  // against the background) mixes two motions; weighting its centre halves
-  // the along-flow bias of forward-looking cameras (results/anchor_tracking.md).
-  double weight_sigma_px = 5.0;
+  // against the background) mixes two motions, and the affine warp cannot
+  // follow the perspective change of a slanted surface under forward
+  // motion: the fitted position runs ahead of the truth by a term that
+  // grows with the weighted area (docs/config.md, anchor.weight_sigma_px).
+  double weight_sigma_px = 3.0;
   int max_iterations = 15;
   double convergence_px = 0.01;  // stop when no template corner moves more
   // Smallest normalised cross-correlation of the aligned patch with the
