@@ -61,6 +61,7 @@ void Visit(V& v, CrossCameraOptions* o) {
   v.Field("enabled", &o->enabled);
   v.Field("min_view_overlap", &o->min_view_overlap);
   v.Field("init_distance_m", &o->init_distance_m);
+  v.Field("near_distance_m", &o->near_distance_m);
   v.Field("epipolar_threshold_px", &o->epipolar_threshold_px);
   v.Field("min_angle_deg", &o->min_angle_deg);
   v.Field("max_matches_per_pair", &o->max_matches_per_pair);

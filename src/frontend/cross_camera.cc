@@ -58,7 +58,7 @@ std::vector<std::pair<int, int>> SelectCrossCameraPairs(const Rig& rig, const st
 
 CrossCameraCheck CheckCrossCameraBearings(const Eigen::Vector3d& bearing_a, const Eigen::Vector3d& bearing_b,
                                           const Rigid3d& b_from_a, double max_epipolar_sine,
-                                          double min_angle_rad) {
+                                          double min_angle_rad, double* depth_a_out) {
   const Eigen::Vector3d r = b_from_a.rotation * bearing_a.normalized();  // a's ray direction in b
   const Eigen::Vector3d f = bearing_b.normalized();
   const Eigen::Vector3d& t = b_from_a.translation;  // a's centre in b
@@ -75,6 +75,7 @@ CrossCameraCheck CheckCrossCameraBearings(const Eigen::Vector3d& bearing_a, cons
   const double depth_a = (-rt + c * ft) / det;
   const double depth_b = (ft - c * rt) / det;
   if (!(depth_a > 0.0 && depth_b > 0.0)) return CrossCameraCheck::kTriangulation;
+  if (depth_a_out != nullptr) *depth_a_out = depth_a;
   return CrossCameraCheck::kOk;
 }
 
@@ -87,37 +88,48 @@ CrossCameraMatcher::CrossCameraMatcher(int camera_a, int camera_b, const Camera&
   const double px = options.cross_camera.epipolar_threshold_px;
   max_epipolar_sine_ = px / std::hypot(px, options.ransac_focal_px);
   min_angle_rad_ = options.cross_camera.min_angle_deg * kPi / 180.0;
-  // The warp W: a's pixel grid -> b's pixels, through the point at d0 on
-  // each pixel's ray. Where b does not see that point (outside b's image,
-  // domain or mask) the map points at b's pixel (0, 0) (out-of-image
-  // coordinates send cv::remap to a slow per-pixel path) and the warped image
-  // is set to 0 afterwards. Fixed-point maps (1/32 px) remap 2-5x faster; the
-  // matched pixel itself is computed exactly, W(p).
-  cv::Mat map_x(a.height, a.width, CV_32FC1), map_y(a.height, a.width, CV_32FC1);
-  unseen_ = cv::Mat::zeros(a.height, a.width, CV_8UC1);
-  constexpr int kRowsPerBlock = 16;  // each pixel's value is its own: any split gives the same maps
-  const int blocks = (a.height + kRowsPerBlock - 1) / kRowsPerBlock;
-  ParallelFor(blocks, threads, [&](int block) {
-    const int end = std::min(a.height, (block + 1) * kRowsPerBlock);
-    for (int y = block * kRowsPerBlock; y < end; ++y) {
-      float* mx = map_x.ptr<float>(y);
-      float* my = map_y.ptr<float>(y);
-      uint8_t* unseen = unseen_.ptr<uint8_t>(y);
-      for (int x = 0; x < a.width; ++x) {
-        const std::optional<Eigen::Vector2d> q = Warp(Eigen::Vector2d(x, y));
-        const cv::Point2f p =
-            q ? cv::Point2f(static_cast<float>(q->x()), static_cast<float>(q->y())) : cv::Point2f();
-        if (q && UsableInB(p)) {
-          mx[x] = p.x;
-          my[x] = p.y;
-        } else {
-          mx[x] = my[x] = 0.0f;
-          unseen[x] = 255;
+  // The warps W_d: a's pixel grid -> b's pixels, through the point at d on
+  // each pixel's ray, one per distance (init_distance_m, near_distance_m).
+  // Where b does not see that point (outside b's image, domain or mask) the
+  // map points at b's pixel (0, 0) (out-of-image coordinates send cv::remap
+  // to a slow per-pixel path) and the warped image is set to 0 afterwards.
+  // Fixed-point maps (1/32 px) remap 2-5x faster; the matched pixel itself
+  // is computed exactly, W_d(p).
+  std::vector<double> distances = {options.cross_camera.init_distance_m};
+  if (options.cross_camera.near_distance_m > 0.0 &&
+      options.cross_camera.near_distance_m != options.cross_camera.init_distance_m) {
+    distances.push_back(options.cross_camera.near_distance_m);
+  }
+  for (const double distance : distances) {
+    WarpMap warp;
+    warp.distance_m = distance;
+    cv::Mat map_x(a.height, a.width, CV_32FC1), map_y(a.height, a.width, CV_32FC1);
+    warp.unseen = cv::Mat::zeros(a.height, a.width, CV_8UC1);
+    constexpr int kRowsPerBlock = 16;  // each pixel's value is its own: any split gives the same maps
+    const int blocks = (a.height + kRowsPerBlock - 1) / kRowsPerBlock;
+    ParallelFor(blocks, threads, [&](int block) {
+      const int end = std::min(a.height, (block + 1) * kRowsPerBlock);
+      for (int y = block * kRowsPerBlock; y < end; ++y) {
+        float* mx = map_x.ptr<float>(y);
+        float* my = map_y.ptr<float>(y);
+        uint8_t* unseen = warp.unseen.ptr<uint8_t>(y);
+        for (int x = 0; x < a.width; ++x) {
+          const std::optional<Eigen::Vector2d> q = Warp(Eigen::Vector2d(x, y), distance);
+          const cv::Point2f p =
+              q ? cv::Point2f(static_cast<float>(q->x()), static_cast<float>(q->y())) : cv::Point2f();
+          if (q && UsableInB(p)) {
+            mx[x] = p.x;
+            my[x] = p.y;
+          } else {
+            mx[x] = my[x] = 0.0f;
+            unseen[x] = 255;
+          }
         }
       }
-    }
-  });
-  cv::convertMaps(map_x, map_y, map_xy_, map_fraction_, CV_16SC2);
+    });
+    cv::convertMaps(map_x, map_y, warp.map_xy, warp.map_fraction, CV_16SC2);
+    warps_.push_back(std::move(warp));
+  }
 }
 
 bool CrossCameraMatcher::UsableInB(const cv::Point2f& p) const {
@@ -128,13 +140,80 @@ bool CrossCameraMatcher::UsableInB(const cv::Point2f& p) const {
   return mask_b_.at<uint8_t>(static_cast<int>(std::lround(p.y)), static_cast<int>(std::lround(p.x))) != 0;
 }
 
-std::optional<Eigen::Vector2d> CrossCameraMatcher::Warp(const Eigen::Vector2d& pixel_a) const {
+std::optional<Eigen::Vector2d> CrossCameraMatcher::Warp(const Eigen::Vector2d& pixel_a, double distance_m) const {
   const std::optional<Eigen::Vector3d> bearing = a_.Unproject(pixel_a);
   if (!bearing) return std::nullopt;
-  std::optional<Eigen::Vector2d> q =
-      b_.Project(b_from_a_ * (options_.cross_camera.init_distance_m * bearing->normalized()));
+  std::optional<Eigen::Vector2d> q = b_.Project(b_from_a_ * (distance_m * bearing->normalized()));
   if (!q || !b_.IsInImage(*q)) return std::nullopt;
   return q;
+}
+
+void CrossCameraMatcher::MatchThroughWarp(const WarpMap& warp, const std::vector<cv::Mat>& pyramid_a,
+                                          const std::vector<cv::Mat>& pyramid_b,
+                                          const std::vector<cv::Point2f>& pts_a, std::vector<Outcome>* outcome,
+                                          std::vector<Eigen::Vector2f>* pixel_b,
+                                          std::vector<double>* depth_a) const {
+  outcome->assign(pts_a.size(), Outcome::kLostLk);
+  pixel_b->assign(pts_a.size(), Eigen::Vector2f::Zero());
+  depth_a->assign(pts_a.size(), 0.0);
+  // 2. b's image warped into a's grid, and LK a -> warped b from the feature
+  // itself (its point at d), 3. back from where it landed (the same
+  // hypothesis seen from the other side).
+  cv::Mat warped;
+  cv::remap(pyramid_b.front(), warped, warp.map_xy, warp.map_fraction, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+            cv::Scalar(0));
+  warped.setTo(0, warp.unseen);
+
+  const cv::Size window(options_.lk.window_px, options_.lk.window_px);
+  std::vector<cv::Mat> pyramid_w;
+  cv::buildOpticalFlowPyramid(warped, pyramid_w, window, options_.lk.pyramid_levels);
+
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, options_.lk.max_iterations,
+                                  0.001);
+  std::vector<cv::Point2f> pts_w = pts_a;
+  std::vector<uint8_t> status, back_status;
+  std::vector<float> error;
+  cv::calcOpticalFlowPyrLK(pyramid_a, pyramid_w, pts_a, pts_w, status, error, window,
+                           options_.lk.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  std::vector<cv::Point2f> back = pts_w;
+  cv::calcOpticalFlowPyrLK(pyramid_w, pyramid_a, pts_w, back, back_status, error, window,
+                           options_.lk.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+
+  // 4, 5. b's pixel W(p_w), forward-backward distance, epipolar plane, triangulation.
+  const double fb2 = options_.lk.forward_backward_threshold_px * options_.lk.forward_backward_threshold_px;
+  for (size_t k = 0; k < pts_a.size(); ++k) {
+    const std::optional<Eigen::Vector2d> q =
+        status[k] ? Warp(Eigen::Vector2d(static_cast<double>(pts_w[k].x), static_cast<double>(pts_w[k].y)),
+                         warp.distance_m)
+                  : std::nullopt;
+    const cv::Point2f pixel =
+        q ? cv::Point2f(static_cast<float>(q->x()), static_cast<float>(q->y())) : cv::Point2f();
+    const std::optional<Eigen::Vector3d> bearing_b =
+        q && UsableInB(pixel)
+            ? b_.Unproject(Eigen::Vector2d(static_cast<double>(pixel.x), static_cast<double>(pixel.y)))
+            : std::nullopt;
+    if (!bearing_b) continue;  // kLostLk
+    const cv::Point2f d = back[k] - pts_a[k];
+    if (!back_status[k] || static_cast<double>(d.dot(d)) > fb2) {
+      (*outcome)[k] = Outcome::kForwardBackward;
+      continue;
+    }
+    const Eigen::Vector3d bearing_a = *a_.Unproject(Eigen::Vector2d(pts_a[k].x, pts_a[k].y));  // step 1
+    double depth = 0.0;
+    switch (CheckCrossCameraBearings(bearing_a, *bearing_b, b_from_a_, max_epipolar_sine_, min_angle_rad_, &depth)) {
+      case CrossCameraCheck::kEpipolar:
+        (*outcome)[k] = Outcome::kEpipolar;
+        continue;
+      case CrossCameraCheck::kTriangulation:
+        (*outcome)[k] = Outcome::kTriangulation;
+        continue;
+      case CrossCameraCheck::kOk:
+        break;
+    }
+    (*outcome)[k] = Outcome::kOk;
+    (*pixel_b)[k] = Eigen::Vector2f(pixel.x, pixel.y);
+    (*depth_a)[k] = depth;
+  }
 }
 
 std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<TrackedFeature>& features_a,
@@ -157,7 +236,7 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
   std::vector<cv::Point2f> pts_a;
   for (size_t i = 0; i < features_a.size(); ++i) {
     const Eigen::Vector2f& u = features_a[i].pixel;
-    const std::optional<Eigen::Vector2d> q = Warp(u.cast<double>());
+    const std::optional<Eigen::Vector2d> q = Warp(u.cast<double>(), warps_.front().distance_m);
     if (!q || !UsableInB(cv::Point2f(static_cast<float>(q->x()), static_cast<float>(q->y())))) {
       ++stats->outside_view;
       continue;
@@ -172,63 +251,54 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
   };
   if (index.empty()) return finish();
 
-  // 2. b's image warped into a's grid, and LK a -> warped b from the feature
-  // itself (its point at d0), 3. back from where it landed (the same
-  // hypothesis seen from the other side).
-  cv::Mat warped;
-  cv::remap(pyramid_b.front(), warped, map_xy_, map_fraction_, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-            cv::Scalar(0));
-  warped.setTo(0, unseen_);
-
-  const cv::Size window(options_.lk.window_px, options_.lk.window_px);
-  std::vector<cv::Mat> pyramid_w;
-  cv::buildOpticalFlowPyramid(warped, pyramid_w, window, options_.lk.pyramid_levels);
-
-  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, options_.lk.max_iterations,
-                                  0.001);
-  std::vector<cv::Point2f> pts_w = pts_a;
-  std::vector<uint8_t> status, back_status;
-  std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(pyramid_a, pyramid_w, pts_a, pts_w, status, error, window,
-                           options_.lk.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
-  std::vector<cv::Point2f> back = pts_w;
-  cv::calcOpticalFlowPyrLK(pyramid_w, pyramid_a, pts_w, back, back_status, error, window,
-                           options_.lk.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
-
-  // 4, 5. b's pixel W(p_w), forward-backward distance, epipolar plane, triangulation.
-  const double fb2 = options_.lk.forward_backward_threshold_px * options_.lk.forward_backward_threshold_px;
+  // 2-5 through each warp; 6. of the warps whose match passes, the one
+  // whose distance is nearest (log ratio) to the match's own depth. A
+  // feature no warp matches is counted under the first warp's reason.
+  struct Choice {
+    Outcome outcome = Outcome::kLostLk;
+    bool found = false;
+    double log_gap = 0.0;
+    Eigen::Vector2f pixel = Eigen::Vector2f::Zero();
+  };
+  std::vector<Choice> choice(index.size());
+  std::vector<Outcome> result;
+  std::vector<Eigen::Vector2f> pixels;
+  std::vector<double> depths;
+  for (size_t w = 0; w < warps_.size(); ++w) {
+    MatchThroughWarp(warps_[w], pyramid_a, pyramid_b, pts_a, &result, &pixels, &depths);
+    for (size_t k = 0; k < index.size(); ++k) {
+      Choice& c = choice[k];
+      if (result[k] != Outcome::kOk) {
+        if (w == 0) c.outcome = result[k];
+        continue;
+      }
+      const double gap = std::abs(std::log(depths[k] / warps_[w].distance_m));
+      if (c.found && !(gap < c.log_gap)) continue;
+      c.found = true;
+      c.outcome = Outcome::kOk;
+      c.log_gap = gap;
+      c.pixel = pixels[k];
+    }
+  }
   std::vector<std::pair<int, Eigen::Vector2f>> accepted;  // (position in index, pixel in b)
   for (size_t k = 0; k < index.size(); ++k) {
-    const std::optional<Eigen::Vector2d> q =
-        status[k] ? Warp(Eigen::Vector2d(static_cast<double>(pts_w[k].x), static_cast<double>(pts_w[k].y)))
-                  : std::nullopt;
-    const cv::Point2f pixel_b =
-        q ? cv::Point2f(static_cast<float>(q->x()), static_cast<float>(q->y())) : cv::Point2f();
-    const std::optional<Eigen::Vector3d> bearing_b =
-        q && UsableInB(pixel_b)
-            ? b_.Unproject(Eigen::Vector2d(static_cast<double>(pixel_b.x), static_cast<double>(pixel_b.y)))
-            : std::nullopt;
-    if (!bearing_b) {
-      ++stats->lost_lk;
-      continue;
-    }
-    const cv::Point2f d = back[k] - pts_a[k];
-    if (!back_status[k] || static_cast<double>(d.dot(d)) > fb2) {
-      ++stats->lost_forward_backward;
-      continue;
-    }
-    const Eigen::Vector3d bearing_a = *a_.Unproject(Eigen::Vector2d(pts_a[k].x, pts_a[k].y));  // step 1
-    switch (CheckCrossCameraBearings(bearing_a, *bearing_b, b_from_a_, max_epipolar_sine_, min_angle_rad_)) {
-      case CrossCameraCheck::kEpipolar:
+    switch (choice[k].outcome) {
+      case Outcome::kLostLk:
+        ++stats->lost_lk;
+        continue;
+      case Outcome::kForwardBackward:
+        ++stats->lost_forward_backward;
+        continue;
+      case Outcome::kEpipolar:
         ++stats->lost_epipolar;
         continue;
-      case CrossCameraCheck::kTriangulation:
+      case Outcome::kTriangulation:
         ++stats->lost_triangulation;
         continue;
-      case CrossCameraCheck::kOk:
+      case Outcome::kOk:
         break;
     }
-    accepted.emplace_back(static_cast<int>(k), Eigen::Vector2f(pixel_b.x, pixel_b.y));
+    accepted.emplace_back(static_cast<int>(k), choice[k].pixel);
   }
 
   // Limit: longest tracks first (ties: a's feature order), then by id.

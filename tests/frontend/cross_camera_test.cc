@@ -47,7 +47,7 @@ struct RigSequence {
 };
 
 std::unique_ptr<RigSequence> Render(const std::string& preset, double scale, int num_frames,
-                                    int64_t t0_ns = 0) {
+                                    int64_t t0_ns = 0, const std::string& scene = "urban") {
   auto s = std::make_unique<RigSequence>();
   s->rig = synth::PresetRig(preset);
   for (Camera& camera : s->rig.cameras) {
@@ -55,7 +55,7 @@ std::unique_ptr<RigSequence> Render(const std::string& preset, double scale, int
     camera = ScaledCamera(camera, scale);
     s->masks.push_back(ValidPixelMask(camera));
   }
-  s->world = synth::BuildScene("urban", 0);
+  s->world = synth::BuildScene(scene, 0);
   s->trajectory = std::make_unique<synth::SmoothTrajectory>(
       synth::TrajectorySpec{s->world.waypoints, s->world.route_closed, s->world.style, s->world.speed_mps,
                             2.5, s->world.rig_height_m, 0});
@@ -222,6 +222,34 @@ TEST(CrossCameraTest, PinholeAndFisheyePairs) {
   EXPECT_LE(rims.over_2px, std::max(1, rims.scored / 5));
 }
 
+// Indoors most points are 1-5 m away, far from the first warp's 20 m: the
+// warped patch is then distorted against a's (scale, shear at the fisheye
+// rims), and LK ends off the point or fails. The second warp at
+// near_distance_m (4 m) matches those points through a patch warped about
+// right.
+TEST(CrossCameraTest, NearWarpMatchesNearPoints) {
+  static const std::unique_ptr<RigSequence> indoor = Render("kitti360-3cam", 0.5, 2, 20 * 1000000000LL, "indoor");
+  const RigSequence& seq = *indoor;
+  FrontendOptions far_only;
+  far_only.cross_camera.near_distance_m = 0.0;
+  const std::vector<MultiCameraFrame> without = TrackAll(seq, 2, far_only);
+  const std::vector<MultiCameraFrame> with = TrackAll(seq, 2);
+  for (const MultiCameraFrame& frame : with) PrintPairStats(frame);
+  int matches_without = 0, matches_with = 0;
+  for (const auto& [a, b] : std::vector<std::pair<int, int>>{{0, 1}, {0, 2}, {1, 2}}) {
+    const PairScore before = Score(seq, without, a, b);
+    const PairScore after = Score(seq, with, a, b);
+    matches_without += before.matches;
+    matches_with += after.matches;
+    EXPECT_GE(after.matches, before.matches) << a << "-" << b;
+    if (after.scored >= 10) {
+      EXPECT_LT(after.median_error_px, 0.6) << a << "-" << b;
+      EXPECT_LE(after.over_2px, after.scored / 10) << a << "-" << b;
+    }
+  }
+  EXPECT_GT(matches_with, matches_without + matches_without / 4);
+}
+
 TEST(CrossCameraTest, PairsAreChosenByViewOverlap) {
   // irregular5: cameras 0-1, 0-3, 2-3, 3-4 share nothing at 10 m.
   Rig rig = synth::PresetRig("irregular5");
@@ -293,6 +321,8 @@ TEST(CrossCameraTest, OptionChecksNameTheField) {
             "/frontend/cross_camera/min_view_overlap: must be in [0, 1], got 1.5");
   EXPECT_EQ(error([](CrossCameraOptions* o) { o->init_distance_m = 0.0; }),
             "/frontend/cross_camera/init_distance_m: must be > 0, got 0");
+  EXPECT_EQ(error([](CrossCameraOptions* o) { o->near_distance_m = -1.0; }),
+            "/frontend/cross_camera/near_distance_m: must be >= 0, got -1");
   EXPECT_EQ(error([](CrossCameraOptions* o) { o->epipolar_threshold_px = -1.0; }),
             "/frontend/cross_camera/epipolar_threshold_px: must be > 0, got -1");
   EXPECT_EQ(error([](CrossCameraOptions* o) { o->min_angle_deg = 91.0; }),

@@ -11,7 +11,7 @@
 // where b sees it; a point at another distance lands elsewhere on u's
 // epipolar curve.
 //  1. b's (CLAHE'd) image is resampled into a's pixel grid through W (a map
-//     computed once per pair; cv::remap, bilinear), so the patch around a
+//     computed once per pair and warp distance; cv::remap, bilinear), so the patch around a
 //     feature looks in the warped image as in a's: the same scale,
 //     orientation and distortion, whatever the two camera models (a pinhole
 //     against a fisheye's rim differs by 2x in scale and by a rotation, which
@@ -35,6 +35,17 @@
 //     both must be > 0 (in front of both cameras), and the angle between the
 //     rays, acos(r . f_b), at least min_angle_deg (else the point is
 //     indistinguishable from one at infinity).
+//  6. Steps 1-5 run through a second warp, d1 = near_distance_m (4 m), as
+//     well. The warped patch matches a's only for points near the warp's
+//     distance: indoors, points 1-5 m away seen through the 20 m warp are
+//     scaled and sheared against a's at the fisheye rims, and LK lands off
+//     the point or fails. Of the warps whose match passes 3-5, the one whose
+//     distance is nearest (|log(depth / d)|) to the depth the match
+//     triangulates gives the match; failures are counted under the first
+//     warp's reason. (Measured and not adopted: a second LK start at d1 on
+//     the first warp, to reject features where the two starts end at
+//     different points: on the KITTI-360 indoor sequence both starts ended
+//     at the same point in every case.)
 // Steps 4-5 cannot see an error along the epipolar curve: a feature on a
 // depth edge (its window mixes a foreground and a background disparity) or
 // on texture repeated along the curve can pass them. Against the ray-cast
@@ -72,14 +83,15 @@ enum class CrossCameraCheck { kOk, kEpipolar, kTriangulation };
 // max_epipolar_sine: sine of the largest angle of f_b to the epipolar plane;
 // min_angle_rad: smallest angle between the rays. A ray along the baseline
 // (no epipolar plane) fails the triangulation.
+// depth_a_out (if given) gets the point's distance from a's centre when kOk.
 CrossCameraCheck CheckCrossCameraBearings(const Eigen::Vector3d& bearing_a, const Eigen::Vector3d& bearing_b,
                                           const Rigid3d& b_from_a, double max_epipolar_sine,
-                                          double min_angle_rad);
+                                          double min_angle_rad, double* depth_a_out = nullptr);
 
 // Matches one camera pair. Thread-safe (const); one per pair.
 class CrossCameraMatcher {
  public:
-  // mask_b: CV_8UC1 of b's size or empty. The warp map (one Unproject and
+  // mask_b: CV_8UC1 of b's size or empty. Each warp map (one Unproject and
   // Project per pixel of a: 0.1-0.5 s for a camera of 0.5-2 Mpx) is computed
   // in row blocks on `threads` threads; it does not depend on their number.
   CrossCameraMatcher(int camera_a, int camera_b, const Camera& a, const Camera& b, const cv::Mat& mask_b,
@@ -98,10 +110,24 @@ class CrossCameraMatcher {
   int camera_b() const { return camera_b_; }
 
  private:
+  enum class Outcome { kOk, kLostLk, kForwardBackward, kEpipolar, kTriangulation };
+  // W_d over a's pixel grid, fixed-point (cv::convertMaps), and where b does
+  // not see (255).
+  struct WarpMap {
+    double distance_m = 0.0;
+    cv::Mat map_xy, map_fraction, unseen;
+  };
+
   // b's pixel is inside b's image (1 px border) and mask.
   bool UsableInB(const cv::Point2f& p) const;
-  // W(u) = Project_b(b_from_a * (d0 Unproject_a(u))); nullopt outside b's image.
-  std::optional<Eigen::Vector2d> Warp(const Eigen::Vector2d& pixel_a) const;
+  // W_d(u) = Project_b(b_from_a * (d Unproject_a(u))); nullopt outside b's image.
+  std::optional<Eigen::Vector2d> Warp(const Eigen::Vector2d& pixel_a, double distance_m) const;
+  // Steps 2-5 through one warp for a's pixels: per pixel the outcome, and
+  // when kOk b's pixel and the depth along a's ray.
+  void MatchThroughWarp(const WarpMap& warp, const std::vector<cv::Mat>& pyramid_a,
+                        const std::vector<cv::Mat>& pyramid_b, const std::vector<cv::Point2f>& pts_a,
+                        std::vector<Outcome>* outcome, std::vector<Eigen::Vector2f>* pixel_b,
+                        std::vector<double>* depth_a) const;
 
   int camera_a_ = 0;
   int camera_b_ = 0;
@@ -111,9 +137,7 @@ class CrossCameraMatcher {
   Rigid3d b_from_a_;
   double max_epipolar_sine_ = 0.0;
   double min_angle_rad_ = 0.0;
-  // W over a's pixel grid, fixed-point (cv::convertMaps), and where b does
-  // not see (255).
-  cv::Mat map_xy_, map_fraction_, unseen_;
+  std::vector<WarpMap> warps_;  // init_distance_m, then near_distance_m (if on)
 };
 
 }  // namespace mcvo
