@@ -12,6 +12,8 @@
 #   env ONLY     a regex (bash =~) on sequence names: run only those
 #   env SCALE    multiplies every image scale (default 1; below 1 only for a smoke test,
 #                e.g. FRAMES=12 SCALE=0.4 ONLY='^(st_urban_s21_noise|tri_indoor_s52_noise)$')
+#   env OUT_BASE where the tables go (default results/suite; with ONLY, name another,
+#                e.g. results/suite_near_warp, so the whole suite's tables stay)
 #   env SUITE    main (default) | monocular: the one-camera suite instead (16 sequences,
 #                4 one-camera rigs x 4 scenes; results/suite_monocular.md and .csv)
 #   --list       print the sequences, their configs and synth arguments; run nothing
@@ -165,7 +167,7 @@ suite roof_open_s64_blackout $ROOF                0.8  open        64 synthetic 
 # (yawed and pitched), roof_pair's radtan camera (14 deg down); each at least
 # 0.7 m from its rig origin. Every rig in every scene, seeds and effects varied.
 SUITE=${SUITE:-main}
-OUT_BASE=results/suite
+OUT_BASE=${OUT_BASE:-results/suite}
 case "$SUITE" in
   main) ;;
   monocular)

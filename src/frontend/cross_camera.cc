@@ -251,38 +251,35 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
   };
   if (index.empty()) return finish();
 
-  // 2-5 through each warp; 6. of the warps whose match passes, the one
-  // whose distance is nearest (log ratio) to the match's own depth. A
-  // feature no warp matches is counted under the first warp's reason.
-  struct Choice {
-    Outcome outcome = Outcome::kLostLk;
-    bool found = false;
-    double log_gap = 0.0;
-    Eigen::Vector2f pixel = Eigen::Vector2f::Zero();
-  };
-  std::vector<Choice> choice(index.size());
-  std::vector<Outcome> result;
-  std::vector<Eigen::Vector2f> pixels;
-  std::vector<double> depths;
-  for (size_t w = 0; w < warps_.size(); ++w) {
-    MatchThroughWarp(warps_[w], pyramid_a, pyramid_b, pts_a, &result, &pixels, &depths);
+  // 2-5 through the first warp: the matches.
+  std::vector<Outcome> outcome;
+  std::vector<Eigen::Vector2f> pixel_b;
+  std::vector<double> depth;
+  MatchThroughWarp(warps_.front(), pyramid_a, pyramid_b, pts_a, &outcome, &pixel_b, &depth);
+  // 6. Through the near warp: where both warps match, the match whose warp
+  // distance is nearest (log ratio) to the depth it triangulates; where only
+  // the near warp does, its match if it triangulates nearer than the
+  // distances' geometric mean.
+  if (warps_.size() > 1) {
+    std::vector<Outcome> near_outcome;
+    std::vector<Eigen::Vector2f> near_pixel_b;
+    std::vector<double> near_depth;
+    MatchThroughWarp(warps_[1], pyramid_a, pyramid_b, pts_a, &near_outcome, &near_pixel_b, &near_depth);
+    const double far_m = warps_[0].distance_m, near_m = warps_[1].distance_m;
+    const double near_limit_m = std::sqrt(far_m * near_m);
     for (size_t k = 0; k < index.size(); ++k) {
-      Choice& c = choice[k];
-      if (result[k] != Outcome::kOk) {
-        if (w == 0) c.outcome = result[k];
-        continue;
-      }
-      const double gap = std::abs(std::log(depths[k] / warps_[w].distance_m));
-      if (c.found && !(gap < c.log_gap)) continue;
-      c.found = true;
-      c.outcome = Outcome::kOk;
-      c.log_gap = gap;
-      c.pixel = pixels[k];
+      if (near_outcome[k] != Outcome::kOk) continue;
+      const bool take = outcome[k] == Outcome::kOk
+                            ? std::abs(std::log(near_depth[k] / near_m)) < std::abs(std::log(depth[k] / far_m))
+                            : near_depth[k] < near_limit_m;
+      if (!take) continue;
+      outcome[k] = Outcome::kOk;
+      pixel_b[k] = near_pixel_b[k];
     }
   }
   std::vector<std::pair<int, Eigen::Vector2f>> accepted;  // (position in index, pixel in b)
   for (size_t k = 0; k < index.size(); ++k) {
-    switch (choice[k].outcome) {
+    switch (outcome[k]) {
       case Outcome::kLostLk:
         ++stats->lost_lk;
         continue;
@@ -298,7 +295,7 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
       case Outcome::kOk:
         break;
     }
-    accepted.emplace_back(static_cast<int>(k), choice[k].pixel);
+    accepted.emplace_back(static_cast<int>(k), pixel_b[k]);
   }
 
   // Limit: longest tracks first (ties: a's feature order), then by id.

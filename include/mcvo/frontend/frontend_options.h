@@ -97,10 +97,8 @@ struct CrossCameraOptions {
   // 5 m: 319, 10 m: 564, 20 m: 606, 30 m: 605, 100 m: 598 (same accuracy);
   // near points land farther from the seed than far ones.
   double init_distance_m = 20.0;
-  // A second warp through the point this far along a's ray (0: none). Each
-  // feature is matched through both; of the matches that pass, the one
-  // whose warp distance is nearest (log ratio) to the distance the match
-  // triangulates is kept (cross_camera.h, step 6).
+  // A second warp through the point this far along a's ray (0: none), for
+  // near points (cross_camera.h, step 6).
   double near_distance_m = 4.0;
   // Largest angle between b's bearing and the epipolar plane of a's bearing,
   // in pixels at focal ransac_focal_px (1 px at 460).
