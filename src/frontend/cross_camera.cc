@@ -140,7 +140,8 @@ bool CrossCameraMatcher::UsableInB(const cv::Point2f& p) const {
   return mask_b_.at<uint8_t>(static_cast<int>(std::lround(p.y)), static_cast<int>(std::lround(p.x))) != 0;
 }
 
-std::optional<Eigen::Vector2d> CrossCameraMatcher::Warp(const Eigen::Vector2d& pixel_a, double distance_m) const {
+std::optional<Eigen::Vector2d> CrossCameraMatcher::Warp(const Eigen::Vector2d& pixel_a,
+                                                        double distance_m) const {
   const std::optional<Eigen::Vector3d> bearing = a_.Unproject(pixel_a);
   if (!bearing) return std::nullopt;
   std::optional<Eigen::Vector2d> q = b_.Project(b_from_a_ * (distance_m * bearing->normalized()));
@@ -150,7 +151,8 @@ std::optional<Eigen::Vector2d> CrossCameraMatcher::Warp(const Eigen::Vector2d& p
 
 void CrossCameraMatcher::MatchThroughWarp(const WarpMap& warp, const std::vector<cv::Mat>& pyramid_a,
                                           const std::vector<cv::Mat>& pyramid_b,
-                                          const std::vector<cv::Point2f>& pts_a, std::vector<Outcome>* outcome,
+                                          const std::vector<cv::Point2f>& pts_a,
+                                          std::vector<Outcome>* outcome,
                                           std::vector<Eigen::Vector2f>* pixel_b,
                                           std::vector<double>* depth_a) const {
   outcome->assign(pts_a.size(), Outcome::kLostLk);
@@ -200,7 +202,8 @@ void CrossCameraMatcher::MatchThroughWarp(const WarpMap& warp, const std::vector
     }
     const Eigen::Vector3d bearing_a = *a_.Unproject(Eigen::Vector2d(pts_a[k].x, pts_a[k].y));  // step 1
     double depth = 0.0;
-    switch (CheckCrossCameraBearings(bearing_a, *bearing_b, b_from_a_, max_epipolar_sine_, min_angle_rad_, &depth)) {
+    switch (CheckCrossCameraBearings(bearing_a, *bearing_b, b_from_a_, max_epipolar_sine_, min_angle_rad_,
+                                     &depth)) {
       case CrossCameraCheck::kEpipolar:
         (*outcome)[k] = Outcome::kEpipolar;
         continue;
@@ -269,9 +272,9 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
     const double near_limit_m = std::sqrt(far_m * near_m);
     for (size_t k = 0; k < index.size(); ++k) {
       if (near_outcome[k] != Outcome::kOk) continue;
-      const bool take = outcome[k] == Outcome::kOk
-                            ? std::abs(std::log(near_depth[k] / near_m)) < std::abs(std::log(depth[k] / far_m))
-                            : near_depth[k] < near_limit_m;
+      const bool take = outcome[k] == Outcome::kOk ? std::abs(std::log(near_depth[k] / near_m)) <
+                                                         std::abs(std::log(depth[k] / far_m))
+                                                   : near_depth[k] < near_limit_m;
       if (!take) continue;
       outcome[k] = Outcome::kOk;
       pixel_b[k] = near_pixel_b[k];

@@ -228,7 +228,8 @@ TEST(CrossCameraTest, PinholeAndFisheyePairs) {
 // near_distance_m (4 m) matches those points through a patch warped about
 // right.
 TEST(CrossCameraTest, NearWarpMatchesNearPoints) {
-  static const std::unique_ptr<RigSequence> indoor = Render("kitti360-3cam", 0.5, 2, 20 * 1000000000LL, "indoor");
+  static const std::unique_ptr<RigSequence> indoor =
+      Render("kitti360-3cam", 0.5, 2, 20 * 1000000000LL, "indoor");
   const RigSequence& seq = *indoor;
   FrontendOptions far_only;
   far_only.cross_camera.near_distance_m = 0.0;

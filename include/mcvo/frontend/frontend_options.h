@@ -64,9 +64,9 @@ struct AnchorOptions {
   int half_size_px = 10;         // template of (2 h + 1)^2 pixels
   double weight_sigma_px = 3.0;  // Gaussian weight of the template around the feature; 0: uniform
   int max_iterations = 30;
-  double min_zncc = 0.8;       // smallest normalised cross-correlation after alignment
-  double max_shift_px = 3.0;   // largest move from the LK position
-  double max_warp_change = 1.6;   // largest change of the affine warp in one frame (singular values)
+  double min_zncc = 0.8;         // smallest normalised cross-correlation after alignment
+  double max_shift_px = 3.0;     // largest move from the LK position
+  double max_warp_change = 1.6;  // largest change of the affine warp in one frame (singular values)
   // A feature whose patch no longer matches: dropped (true), or kept on its
   // LK position with a new template taken there (false).
   bool drop_mismatch = true;
