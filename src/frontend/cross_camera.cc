@@ -128,6 +128,9 @@ CrossCameraMatcher::CrossCameraMatcher(int camera_a, int camera_b, const Camera&
       }
     });
     cv::convertMaps(map_x, map_y, warp.map_xy, warp.map_fraction, CV_16SC2);
+    cv::Mat seen;
+    cv::bitwise_not(warp.unseen, seen);
+    warp.seen_box = cv::boundingRect(seen);
     warps_.push_back(std::move(warp));
   }
 }
@@ -161,10 +164,14 @@ void CrossCameraMatcher::MatchThroughWarp(const WarpMap& warp, const std::vector
   // 2. b's image warped into a's grid, and LK a -> warped b from the feature
   // itself (its point at d), 3. back from where it landed (the same
   // hypothesis seen from the other side).
-  cv::Mat warped;
-  cv::remap(pyramid_b.front(), warped, warp.map_xy, warp.map_fraction, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-            cv::Scalar(0));
-  warped.setTo(0, warp.unseen);
+  cv::Mat warped = cv::Mat::zeros(a_.height, a_.width, CV_8UC1);
+  if (!warp.seen_box.empty()) {
+    const cv::Rect& box = warp.seen_box;
+    cv::Mat warped_box = warped(box);  // a view: remap writes into warped
+    cv::remap(pyramid_b.front(), warped_box, warp.map_xy(box), warp.map_fraction(box), cv::INTER_LINEAR,
+              cv::BORDER_CONSTANT, cv::Scalar(0));
+    warped_box.setTo(0, warp.unseen(box));
+  }
 
   const cv::Size window(options_.lk.window_px, options_.lk.window_px);
   std::vector<cv::Mat> pyramid_w;

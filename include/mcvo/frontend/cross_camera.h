@@ -121,6 +121,9 @@ class CrossCameraMatcher {
   struct WarpMap {
     double distance_m = 0.0;
     cv::Mat map_xy, map_fraction, unseen;
+    // Bounding box of the pixels b sees (unseen == 0); the warped image is 0
+    // outside it, so only this part is resampled.
+    cv::Rect seen_box;
   };
 
   // b's pixel is inside b's image (1 px border) and mask.
