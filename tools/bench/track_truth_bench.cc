@@ -1,7 +1,7 @@
 // Accuracy of a track file against the renderer's ground truth
 // (tools/bench_anchor.sh, results/anchor_tracking.md).
 //
-//   mcvo_bench_track_truth DATASET TRACKS [TRUE_TRACKS [MATCHES]]
+//   mcvo_bench_track_truth DATASET TRACKS [TRUE_TRACKS [MODE]]
 //
 // DATASET is a `mcvo synth` output (meta.json names the scene and seed,
 // rig.json the cameras, groundtruth.tum the rig poses); TRACKS a track file
@@ -29,11 +29,12 @@
 // the first, and every cross-camera match, replaced by that projection (features on moving objects or
 // leaving the camera's model keep their tracked pixels): `mcvo run --tracks`
 // on it shows what the back end makes of the same features without
-// tracking error. With MATCHES = tracked (default: first-sight), each
-// match is instead the projection into b of the point a's ray hits at the
-// pixel a tracked: perfect matching of the features as tracked, so that
-// the cost of the matching errors alone can be told from that of the
-// tracks. The printed statistics are always those of TRACKS.
+// tracking error. With MODE = matches (default: all), the tracks stay as
+// tracked and only the cross-camera matches move, each to the projection
+// into b of the point a's ray hits at the pixel a tracked: perfect matching
+// of the features as tracked, so that the cost of the matching errors
+// alone can be told from that of the tracks. The printed statistics are
+// always those of TRACKS.
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
@@ -67,7 +68,7 @@ struct FirstSight {
 };
 
 int Run(const std::string& dataset, const std::string& tracks, const std::string& true_tracks,
-        bool matches_from_tracked) {
+        bool matches_only) {
   std::ifstream meta_file(dataset + "/meta.json");
   if (!meta_file) MCVO_THROW_INPUT(dataset, "/meta.json: cannot open (not a `mcvo synth` dataset)");
   const nlohmann::json meta = nlohmann::json::parse(meta_file, nullptr, false);
@@ -141,7 +142,7 @@ int Run(const std::string& dataset, const std::string& tracks, const std::string
         if (!projection) continue;
         const Eigen::Vector2f truth = projection->cast<float>();
         const Eigen::Vector2f error = f.pixel - truth;
-        f.pixel = truth;  // for TRUE_TRACKS
+        if (!matches_only) f.pixel = truth;  // for TRUE_TRACKS
         const auto slot = std::find(lengths.begin(), lengths.end(), f.track_length);
         if (slot == lengths.end()) continue;
         const Eigen::Vector2f motion = truth - it->second.pixel;
@@ -170,7 +171,7 @@ int Run(const std::string& dataset, const std::string& tracks, const std::string
       const auto truth = cameras[b]->Project(b_from_world * it->second.point);
       if (!truth) continue;
       const Eigen::Vector2f matched = m.pixel_b;  // as matched (the statistics are of TRACKS)
-      if (writer) m.pixel_b = truth->cast<float>();
+      if (writer && !matches_only) m.pixel_b = truth->cast<float>();
       const auto bearing_a = cameras[a]->Unproject(a_pixels[{a, m.id_a}].cast<double>());
       if (!bearing_a) continue;
       const auto hit = world.scene.Intersect(world_from_a.translation, world_from_a.rotation * *bearing_a,
@@ -178,7 +179,7 @@ int Run(const std::string& dataset, const std::string& tracks, const std::string
       if (!hit || hit->moving_object >= 0) continue;
       const auto seen = cameras[b]->Project(b_from_world * hit->point);
       if (!seen) continue;
-      if (writer && matches_from_tracked) m.pixel_b = seen->cast<float>();
+      if (writer && matches_only) m.pixel_b = seen->cast<float>();
       CrossStats& stats = cross[{a, b}];
       stats.errors.push_back((matched - seen->cast<float>()).norm());
       const auto bearing_b = cameras[b]->Unproject(matched.cast<double>());
@@ -263,18 +264,17 @@ int Run(const std::string& dataset, const std::string& tracks, const std::string
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string matches = argc == 5 ? argv[4] : "first-sight";
-  if (argc < 3 || argc > 5 || (matches != "first-sight" && matches != "tracked")) {
+  const std::string mode = argc == 5 ? argv[4] : "all";
+  if (argc < 3 || argc > 5 || (mode != "all" && mode != "matches")) {
     std::fprintf(
         stderr,
-        "usage: mcvo_bench_track_truth DATASET TRACKS [TRUE_TRACKS [first-sight|tracked]] (a `mcvo synth` "
-        "dataset, a `mcvo track` file of it, the track file to write with true pixels, and whether its "
-        "matches are the projections of the points the features were detected on or of those a's "
-        "tracked pixels see)\n");
+        "usage: mcvo_bench_track_truth DATASET TRACKS [TRUE_TRACKS [all|matches]] (a `mcvo synth` "
+        "dataset, a `mcvo track` file of it, the track file to write with true pixels: every observation "
+        "and match, or only the matches, each where b sees the point a's tracked pixel sees)\n");
     return 2;
   }
   try {
-    return Run(argv[1], argv[2], argc >= 4 ? argv[3] : "", matches == "tracked");
+    return Run(argv[1], argv[2], argc >= 4 ? argv[3] : "", mode == "matches");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "mcvo_bench_track_truth: error: %s\n", e.what());
     return 1;
