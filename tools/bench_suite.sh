@@ -14,6 +14,9 @@
 #                e.g. FRAMES=12 SCALE=0.4 ONLY='^(st_urban_s21_noise|tri_indoor_s52_noise)$')
 #   env OUT_BASE where the tables go (default results/suite; with ONLY, name another,
 #                e.g. results/suite_near_warp, so the whole suite's tables stay)
+#   env SET      config overrides for every run, space-separated key=JSON pairs, e.g.
+#                SET='frontend.cross_camera.equalised=false frontend.cross_camera.normalise_sigma_px=8'
+#                (an A/B run of one setting over the suite; the tables name them)
 #   env SUITE    main (default) | monocular: the one-camera suite instead (16 sequences,
 #                4 one-camera rigs x 4 scenes; results/suite_monocular.md and .csv)
 #   --list       print the sequences, their configs and synth arguments; run nothing
@@ -299,11 +302,26 @@ done
 
 # ---- runs: one mcvo batch, one run at a time, 2 threads each -----------------
 MANIFEST="$SCRATCH/suite_manifest.json"
-python3 - "$RUNS_TSV" "$ROOT" "$THREADS" > "$MANIFEST" <<'PY'
+python3 - "$RUNS_TSV" "$ROOT" "$THREADS" "$SCRATCH" "${SET:-}" > "$MANIFEST" <<'PY'
 import csv, json, os, sys
-tsv, root, threads = sys.argv[1], sys.argv[2], int(sys.argv[3])
+tsv, root, threads, scratch, overrides = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4], sys.argv[5]
+def config_path(name):
+    path = os.path.join(root, "config", name + ".json")
+    if not overrides.split():
+        return path
+    config = json.load(open(path))
+    for pair in overrides.split():
+        key, value = pair.split("=", 1)
+        node = config
+        for part in key.split(".")[:-1]:
+            node = node.setdefault(part, {})
+        node[key.split(".")[-1]] = json.loads(value)
+    os.makedirs(os.path.join(scratch, "configs"), exist_ok=True)
+    out = os.path.join(scratch, "configs", name + ".json")
+    json.dump(config, open(out, "w"), indent=1)
+    return out
 runs = [{"name": r["run"], "dataset": {"root": r["dataset"], "format": "generic"},
-         "config": os.path.join(root, "config", r["config"] + ".json"), "threads": threads}
+         "config": config_path(r["config"]), "threads": threads}
         for r in csv.DictReader(open(tsv), delimiter="\t") if r["render_status"] == "ok"]
 json.dump({"runs": runs}, sys.stdout, indent=2)
 print()
@@ -329,7 +347,7 @@ SUITE_CPU=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//' ||
 SUITE_COMMIT=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 git diff --quiet HEAD -- src include tools config 2>/dev/null || SUITE_COMMIT+=" (with local changes)"
 SUITE_VERSION=$("$MCVO" version 2>/dev/null | head -1 || true)
-export FRAMES ONLY SUITE_CPU SUITE_COMMIT SUITE_VERSION SUITE OUT_BASE
+export SET FRAMES ONLY SUITE_CPU SUITE_COMMIT SUITE_VERSION SUITE OUT_BASE
 SUITE_NPROC=$(nproc)
 SUITE_DATE=$(date -u '+%Y-%m-%d %H:%M UTC')
 export SUITE_NPROC SUITE_DATE SUITE_RENDER_S=$render_total \
@@ -340,7 +358,7 @@ import csv, json, math, os, statistics, sys
 
 tsv, runs_dir = sys.argv[1], sys.argv[2]
 e = os.environ
-info = dict(frames=int(e["FRAMES"]), only=e.get("ONLY", ""), nproc=e["SUITE_NPROC"], cpu=e["SUITE_CPU"],
+info = dict(frames=int(e["FRAMES"]), only=e.get("ONLY", ""), overrides=e.get("SET", ""), nproc=e["SUITE_NPROC"], cpu=e["SUITE_CPU"],
             commit=e["SUITE_COMMIT"], version=e["SUITE_VERSION"], date=e["SUITE_DATE"],
             render_s=float(e["SUITE_RENDER_S"]), rendered=int(e["SUITE_RENDERED"]), cached=int(e["SUITE_CACHED"]),
             render_failed=int(e["SUITE_RENDER_FAILED"]), batch_s=float(e["SUITE_BATCH_S"]),
@@ -562,6 +580,8 @@ run_sum = sum(r["run_s"] for r in rows if not math.isnan(r["run_s"]))
 render_sum = sum(r["render_s"] for r in {x["sequence"]: x for x in rows}.values() if not math.isnan(r["render_s"]))
 n_seq = len({r["sequence"] for r in rows})
 subset = f"; subset ONLY='{info['only']}': {n_seq} of {info['total_sequences']} sequences" if info["only"] else ""
+if info["overrides"]:
+    subset += f"; every config with SET='{info['overrides']}'"
 monocular = e["SUITE"] == "monocular"
 title = ("# Monocular suite: `mcvo run` on one-camera rigs (SUITE=monocular tools/bench_suite.sh)" if monocular
          else "# Robustness suite: `mcvo run` on every sequence (tools/bench_suite.sh)")

@@ -62,6 +62,8 @@ void Visit(V& v, CrossCameraOptions* o) {
   v.Field("min_view_overlap", &o->min_view_overlap);
   v.Field("init_distance_m", &o->init_distance_m);
   v.Field("near_distance_m", &o->near_distance_m);
+  v.Field("equalised", &o->equalised);
+  v.Field("normalise_sigma_px", &o->normalise_sigma_px);
   v.Field("epipolar_threshold_px", &o->epipolar_threshold_px);
   v.Field("min_angle_deg", &o->min_angle_deg);
   v.Field("max_matches_per_pair", &o->max_matches_per_pair);

@@ -110,6 +110,9 @@ struct CameraTracker::Impl {
 
   // State after the last Track() (+ AssignNewIds): what the next frame tracks.
   std::vector<cv::Mat> prev_pyramid;
+  // With CLAHE on and cross_camera.equalised off: the pyramid of the
+  // unequalised image, for cross-camera matching (CrossCameraPyramid()).
+  std::vector<cv::Mat> prev_raw_pyramid;
   std::vector<TrackedFeature> prev_features;
   cv::Mat prev_descriptors;
   // With options.anchor.enabled: one per prev_features entry (the patch of
@@ -151,7 +154,8 @@ struct CameraTracker::Impl {
   void RefineByAnchor(const cv::Mat& image, std::vector<int>* kept, std::vector<cv::Point2f>* kept_pixels,
                       std::vector<PatchAnchor>* anchors, CameraFrameStats* stats);
   // Detection and selection of new features up to max_features.
-  void AddNewFeatures(const cv::Mat& image, const std::vector<cv::Mat>& pyramid, CameraFrameResult* result) const;
+  void AddNewFeatures(const cv::Mat& image, const std::vector<cv::Mat>& pyramid,
+                      CameraFrameResult* result) const;
   // Detections on detection_level, in full-resolution pixels.
   Detections Detect(const cv::Mat& image, const std::vector<cv::Mat>& pyramid, int cap) const;
 };
@@ -207,6 +211,7 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
     // No image: every track ends; the next image starts afresh.
     stats.image_missing = true;
     prev_pyramid.clear();
+    prev_raw_pyramid.clear();
     prev_features.clear();
     prev_descriptors = cv::Mat();
     prev_anchors.clear();
@@ -229,6 +234,10 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   const cv::Size window(options.lk.window_px, options.lk.window_px);
   std::vector<cv::Mat> pyramid;
   cv::buildOpticalFlowPyramid(image, pyramid, window, options.lk.pyramid_levels);
+  std::vector<cv::Mat> raw_pyramid;
+  if (clahe && options.cross_camera.enabled && !options.cross_camera.equalised) {
+    cv::buildOpticalFlowPyramid(input, raw_pyramid, window, options.lk.pyramid_levels);
+  }
   stats.seconds_pyramid = SecondsSince(start);
 
   // 2. LK forward, backward; 3. RANSAC on bearings.
@@ -277,6 +286,7 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   stats.sfd = ComputeSfd(pixels, camera.width, camera.height);
 
   prev_pyramid = std::move(pyramid);
+  prev_raw_pyramid = std::move(raw_pyramid);
   prev_features = result.features;
   prev_descriptors = result.descriptors;
   prev_anchors = std::move(anchors);
@@ -389,8 +399,8 @@ std::optional<Eigen::Matrix3d> CameraTracker::Impl::RejectByRansac(std::vector<i
 }
 
 void CameraTracker::Impl::RefineByAnchor(const cv::Mat& image, std::vector<int>* kept,
-                                         std::vector<cv::Point2f>* kept_pixels, std::vector<PatchAnchor>* anchors,
-                                         CameraFrameStats* stats) {
+                                         std::vector<cv::Point2f>* kept_pixels,
+                                         std::vector<PatchAnchor>* anchors, CameraFrameStats* stats) {
   MCVO_CHECK(prev_anchors.size() == prev_features.size());
   std::vector<int> survivors;
   std::vector<cv::Point2f> survivor_pixels;
@@ -449,7 +459,8 @@ Detections DetectionRows(const Detections& all, const std::vector<size_t>& rows)
 
 }  // namespace
 
-Detections CameraTracker::Impl::Detect(const cv::Mat& image, const std::vector<cv::Mat>& pyramid, int cap) const {
+Detections CameraTracker::Impl::Detect(const cv::Mat& image, const std::vector<cv::Mat>& pyramid,
+                                       int cap) const {
   // buildOpticalFlowPyramid with derivatives: level l's image at 2 l.
   const size_t index = static_cast<size_t>(2 * detection_level);
   if (detection_level == 0 || index >= pyramid.size()) return detector->Detect(image, mask, cap, border_px);
@@ -542,6 +553,10 @@ void CameraTracker::AssignNewIds(uint64_t* next_id, CameraFrameResult* result) {
 }
 
 const std::vector<cv::Mat>& CameraTracker::Pyramid() const { return impl_->prev_pyramid; }
+
+const std::vector<cv::Mat>& CameraTracker::CrossCameraPyramid() const {
+  return impl_->prev_raw_pyramid.empty() ? impl_->prev_pyramid : impl_->prev_raw_pyramid;
+}
 
 int CameraTracker::DescriptorSize() const { return impl_->detector->DescriptorSize(); }
 int CameraTracker::DescriptorType() const { return impl_->detector->DescriptorType(); }

@@ -37,6 +37,52 @@ using Clock = std::chrono::steady_clock;
 
 constexpr double kPi = 3.14159265358979323846;
 
+// (I - mean) / max(std, floor) with mean and std over a box window of
+// (2 r + 1)^2 pixels, r = round(sqrt(3) sigma_px) (a box of the Gaussian's
+// variance; running sums, O(1) per pixel), mapped to 8 bits around 128 (LK
+// reads 8-bit images), inside `roi` only; 128 elsewhere. Pixels where
+// `valid` is 0 (b does not see them) stay out of the statistics and come
+// out 128. A linear map per pixel, the same for a's image and b's warped
+// into a's grid: a gain, an offset or a smooth falloff (vignetting) between
+// the cameras cancels; a histogram equalisation per camera (CLAHE) would
+// not.
+cv::Mat LocalNormalise(const cv::Mat& image, const cv::Mat& valid, const cv::Rect& roi, double sigma_px) {
+  cv::Mat out(image.size(), CV_8UC1, cv::Scalar(128));
+  if (roi.empty()) return out;
+  const int r = std::max(1, static_cast<int>(std::lround(std::sqrt(3.0) * sigma_px)));
+  const cv::Size box(2 * r + 1, 2 * r + 1);
+  cv::Mat i, m;
+  image(roi).convertTo(i, CV_32F);
+  if (valid.empty()) {
+    m = cv::Mat(roi.size(), CV_32F, cv::Scalar(1.0f));
+  } else {
+    valid(roi).convertTo(m, CV_32F, 1.0 / 255.0);
+  }
+  const cv::Mat im = i.mul(m), i2m = im.mul(i);
+  cv::Mat bm, bim, bi2m;
+  cv::boxFilter(m, bm, CV_32F, box, cv::Point(-1, -1), true, cv::BORDER_CONSTANT);
+  cv::boxFilter(im, bim, CV_32F, box, cv::Point(-1, -1), true, cv::BORDER_CONSTANT);
+  cv::boxFilter(i2m, bi2m, CV_32F, box, cv::Point(-1, -1), true, cv::BORDER_CONSTANT);
+  constexpr float kFloorStd = 4.0f;  // grey levels: flat regions are not amplified into noise
+  constexpr float kOutputStd = 32.0f;
+  for (int y = 0; y < roi.height; ++y) {
+    const float* pi = i.ptr<float>(y);
+    const float* pm = m.ptr<float>(y);
+    const float* pbm = bm.ptr<float>(y);
+    const float* pbim = bim.ptr<float>(y);
+    const float* pbi2m = bi2m.ptr<float>(y);
+    uint8_t* po = out.ptr<uint8_t>(roi.y + y) + roi.x;
+    for (int x = 0; x < roi.width; ++x) {
+      if (pm[x] < 0.5f || pbm[x] < 1e-3f) continue;
+      const float mean = pbim[x] / pbm[x];
+      const float var = std::max(0.0f, pbi2m[x] / pbm[x] - mean * mean);
+      const float v = 128.0f + kOutputStd * (pi[x] - mean) / std::max(std::sqrt(var), kFloorStd);
+      po[x] = static_cast<uint8_t>(std::clamp(v, 0.0f, 255.0f) + 0.5f);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<std::pair<int, int>> SelectCrossCameraPairs(const Rig& rig, const std::vector<cv::Mat>& masks,
@@ -131,7 +177,16 @@ CrossCameraMatcher::CrossCameraMatcher(int camera_a, int camera_b, const Camera&
     cv::Mat seen;
     cv::bitwise_not(warp.unseen, seen);
     warp.seen_box = cv::boundingRect(seen);
+    normalise_roi_a_ |= warp.seen_box;
     warps_.push_back(std::move(warp));
+  }
+  // a's image is normalised (step 2) where LK can read it: around the
+  // pixels b sees, by LK's window at the coarsest pyramid level.
+  const int margin = (options.lk.window_px / 2 + 2) << options.lk.pyramid_levels;
+  if (!normalise_roi_a_.empty()) {
+    normalise_roi_a_ = cv::Rect(normalise_roi_a_.x - margin, normalise_roi_a_.y - margin,
+                                normalise_roi_a_.width + 2 * margin, normalise_roi_a_.height + 2 * margin) &
+                       cv::Rect(0, 0, a.width, a.height);
   }
 }
 
@@ -175,6 +230,12 @@ void CrossCameraMatcher::MatchThroughWarp(const WarpMap& warp, const std::vector
 
   const cv::Size window(options_.lk.window_px, options_.lk.window_px);
   std::vector<cv::Mat> pyramid_w;
+  const double sigma = options_.cross_camera.normalise_sigma_px;
+  if (sigma > 0.0) {
+    cv::Mat seen;
+    cv::bitwise_not(warp.unseen, seen);
+    warped = LocalNormalise(warped, seen, warp.seen_box, sigma);
+  }
   cv::buildOpticalFlowPyramid(warped, pyramid_w, window, options_.lk.pyramid_levels);
 
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, options_.lk.max_iterations,
@@ -265,7 +326,16 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
   std::vector<Outcome> outcome;
   std::vector<Eigen::Vector2f> pixel_b;
   std::vector<double> depth;
-  MatchThroughWarp(warps_.front(), pyramid_a, pyramid_b, pts_a, &outcome, &pixel_b, &depth);
+  // a's image normalised once for both warps (step 2).
+  std::vector<cv::Mat> normalised_a;
+  const double sigma = options_.cross_camera.normalise_sigma_px;
+  if (sigma > 0.0) {
+    cv::buildOpticalFlowPyramid(LocalNormalise(pyramid_a.front(), cv::Mat(), normalise_roi_a_, sigma),
+                                normalised_a, cv::Size(options_.lk.window_px, options_.lk.window_px),
+                                options_.lk.pyramid_levels);
+  }
+  const std::vector<cv::Mat>& pa = sigma > 0.0 ? normalised_a : pyramid_a;
+  MatchThroughWarp(warps_.front(), pa, pyramid_b, pts_a, &outcome, &pixel_b, &depth);
   // 6. Through the near warp: where both warps match, the match whose warp
   // distance is nearest (log ratio) to the depth it triangulates; where only
   // the near warp does, its match if it triangulates nearer than the
@@ -274,7 +344,7 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
     std::vector<Outcome> near_outcome;
     std::vector<Eigen::Vector2f> near_pixel_b;
     std::vector<double> near_depth;
-    MatchThroughWarp(warps_[1], pyramid_a, pyramid_b, pts_a, &near_outcome, &near_pixel_b, &near_depth);
+    MatchThroughWarp(warps_[1], pa, pyramid_b, pts_a, &near_outcome, &near_pixel_b, &near_depth);
     const double far_m = warps_[0].distance_m, near_m = warps_[1].distance_m;
     const double near_limit_m = std::sqrt(far_m * near_m);
     for (size_t k = 0; k < index.size(); ++k) {

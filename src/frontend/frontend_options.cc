@@ -38,6 +38,7 @@ void FrontendOptions::Check() const {
   CheckInRange("/frontend/cross_camera/min_view_overlap", cross_camera.min_view_overlap, 0.0, 1.0);
   CheckPositive("/frontend/cross_camera/init_distance_m", cross_camera.init_distance_m);
   CheckAtLeast("/frontend/cross_camera/near_distance_m", cross_camera.near_distance_m, 0.0);
+  CheckAtLeast("/frontend/cross_camera/normalise_sigma_px", cross_camera.normalise_sigma_px, 0.0);
   CheckPositive("/frontend/cross_camera/epipolar_threshold_px", cross_camera.epipolar_threshold_px);
   CheckInRange("/frontend/cross_camera/min_angle_deg", cross_camera.min_angle_deg, 0.0, 90.0);
   CheckAtLeast("/frontend/cross_camera/max_matches_per_pair", cross_camera.max_matches_per_pair, 0);

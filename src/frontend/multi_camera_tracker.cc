@@ -60,8 +60,8 @@ MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat
   for (const auto& [a, b] : impl_->pairs) {
     const cv::Mat mask_b = masks.empty() ? cv::Mat() : masks[static_cast<size_t>(b)];
     impl_->matchers.push_back(std::make_unique<CrossCameraMatcher>(a, b, rig.cameras[static_cast<size_t>(a)],
-                                                                   rig.cameras[static_cast<size_t>(b)], mask_b,
-                                                                   options, impl_->threads));
+                                                                   rig.cameras[static_cast<size_t>(b)],
+                                                                   mask_b, options, impl_->threads));
   }
 }
 
@@ -89,8 +89,8 @@ MultiCameraFrame MultiCameraTracker::Track(int frame_index, int64_t t_ns,
     const CrossCameraMatcher& matcher = *impl_->matchers[i];
     const size_t a = static_cast<size_t>(matcher.camera_a());
     const size_t b = static_cast<size_t>(matcher.camera_b());
-    matches[i] = matcher.Match(frame.cameras[a].features, impl_->trackers[a]->Pyramid(),
-                               impl_->trackers[b]->Pyramid(), &frame.cross_pair_stats[i]);
+    matches[i] = matcher.Match(frame.cameras[a].features, impl_->trackers[a]->CrossCameraPyramid(),
+                               impl_->trackers[b]->CrossCameraPyramid(), &frame.cross_pair_stats[i]);
   });
   for (const std::vector<CrossCameraMatch>& pair_matches : matches) {
     frame.cross_matches.insert(frame.cross_matches.end(), pair_matches.begin(), pair_matches.end());

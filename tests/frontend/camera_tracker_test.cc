@@ -119,8 +119,8 @@ void PrintAccuracy(const char* what, const Camera& camera, const TrackAccuracy& 
   std::printf(
       "LK accuracy (%s, urban, %dx%d): %zu observations, median %.3f px, p90 %.3f px, "
       "max track length %d, mean of per-frame mean track length %.2f, lost to the anchor check %d\n",
-      what, camera.width, camera.height, a.errors.size(), Percentile(a.errors, 0.5), Percentile(a.errors, 0.9),
-      a.max_track_length, a.mean_track_length, a.lost_anchor);
+      what, camera.width, camera.height, a.errors.size(), Percentile(a.errors, 0.5),
+      Percentile(a.errors, 0.9), a.max_track_length, a.mean_track_length, a.lost_anchor);
   for (const auto& [length, values] : a.errors_by_length) {
     std::printf("  track length %2d: %3zu observations, median %.3f px, p90 %.3f px\n", length, values.size(),
                 Percentile(values, 0.5), Percentile(values, 0.9));
@@ -177,8 +177,8 @@ TEST(CameraTrackerTest, AnchorCheckStopsTheDriftOfLongTracks) {
 // their points (measured: 246 of 305, median error 0.10 px). Without it,
 // most are lost (33).
 struct TurnTracking {
-  int tracked = 0;     // frames 3.. : features carried over
-  int in_view = 0;     // frames 3.. : previous features whose point stays in view
+  int tracked = 0;             // frames 3.. : features carried over
+  int in_view = 0;             // frames 3.. : previous features whose point stays in view
   std::vector<double> errors;  // tracked features against their point's projection
 };
 
@@ -233,8 +233,8 @@ TurnTracking TrackTurn(bool predict_rotation) {
       if (f.track_length == 1) {
         const auto bearing = camera.Unproject(f.pixel.cast<double>());
         if (!bearing) continue;
-        const auto hit = seq.world.scene.Intersect(world_from_cam.translation, world_from_cam.rotation * *bearing,
-                                                   frame * kFramePeriodNs);
+        const auto hit = seq.world.scene.Intersect(
+            world_from_cam.translation, world_from_cam.rotation * *bearing, frame * kFramePeriodNs);
         if (hit && hit->moving_object < 0) still[f.id] = hit->point;
         continue;
       }
@@ -253,9 +253,10 @@ TurnTracking TrackTurn(bool predict_rotation) {
 TEST(CameraTrackerTest, RotationPredictionKeepsTracksThroughAFastTurn) {
   const TurnTracking predicted = TrackTurn(true);
   const TurnTracking plain = TrackTurn(false);
-  std::printf("turn of 10 deg/frame, frames 3-6: %d of %d features in view tracked with the rotation "
-              "prediction (median error %.3f px), %d without\n",
-              predicted.tracked, predicted.in_view, Percentile(predicted.errors, 0.5), plain.tracked);
+  std::printf(
+      "turn of 10 deg/frame, frames 3-6: %d of %d features in view tracked with the rotation "
+      "prediction (median error %.3f px), %d without\n",
+      predicted.tracked, predicted.in_view, Percentile(predicted.errors, 0.5), plain.tracked);
   ASSERT_GT(predicted.in_view, 100);
   EXPECT_GT(predicted.tracked, 0.7 * predicted.in_view);
   EXPECT_LT(Percentile(predicted.errors, 0.5), 0.3);
@@ -295,8 +296,8 @@ TEST(CameraTrackerTest, DetectionOnAPyramidLevelStaysInTheMaskAndOnItsPoints) {
         if (f.track_length == 1) {
           const auto bearing = camera.Unproject(f.pixel.cast<double>());
           ASSERT_TRUE(bearing.has_value());
-          const auto hit = seq.world.scene.Intersect(world_from_cam.translation,
-                                                     world_from_cam.rotation * *bearing, frame * kFramePeriodNs);
+          const auto hit = seq.world.scene.Intersect(
+              world_from_cam.translation, world_from_cam.rotation * *bearing, frame * kFramePeriodNs);
           if (hit && hit->moving_object < 0) point_of_id[f.id] = hit->point;
           continue;
         }
@@ -419,6 +420,31 @@ TEST(CameraTrackerTest, CarriesDescriptorsWithFeatures) {
       if (!inserted) {
         EXPECT_EQ(cv::norm(it->second, row, cv::NORM_INF), 0.0) << "id " << result.features[i].id;
       }
+    }
+  }
+}
+
+// Cross-camera matching reads the images as decoded unless
+// cross_camera.equalised: CLAHE maps each camera's intensities by its own
+// tiles, which moves a patch's match between two cameras.
+TEST(CameraTrackerTest, CrossCameraPyramidIsOfTheDecodedImageUnlessEqualised) {
+  const UrbanSequence& seq = Sequence();
+  const cv::Mat& image = seq.images[0];
+  for (const bool clahe : {true, false}) {
+    for (const bool equalised : {false, true}) {
+      FrontendOptions options = ShiTomasiOptions();
+      options.clahe.enabled = clahe;
+      options.cross_camera.equalised = equalised;
+      CameraTracker tracker(seq.rig.cameras[0], cv::Mat(), options, CreateDetector(options));
+      tracker.Track(image);
+      const cv::Mat& tracked = tracker.Pyramid().front();
+      const cv::Mat& matched = tracker.CrossCameraPyramid().front();
+      ASSERT_EQ(matched.size(), image.size());
+      EXPECT_EQ(tracker.CrossCameraPyramid().size(), tracker.Pyramid().size());
+      EXPECT_EQ(cv::norm(matched, equalised ? tracked : image, cv::NORM_INF), 0.0)
+          << "clahe " << clahe << " equalised " << equalised;
+      // With CLAHE on, the tracker's own pyramid is the equalised image.
+      EXPECT_EQ(cv::norm(tracked, image, cv::NORM_INF) > 0.0, clahe);
     }
   }
 }

@@ -324,6 +324,8 @@ TEST(CrossCameraTest, OptionChecksNameTheField) {
             "/frontend/cross_camera/init_distance_m: must be > 0, got 0");
   EXPECT_EQ(error([](CrossCameraOptions* o) { o->near_distance_m = -1.0; }),
             "/frontend/cross_camera/near_distance_m: must be >= 0, got -1");
+  EXPECT_EQ(error([](CrossCameraOptions* o) { o->normalise_sigma_px = -2.0; }),
+            "/frontend/cross_camera/normalise_sigma_px: must be >= 0, got -2");
   EXPECT_EQ(error([](CrossCameraOptions* o) { o->epipolar_threshold_px = -1.0; }),
             "/frontend/cross_camera/epipolar_threshold_px: must be > 0, got -1");
   EXPECT_EQ(error([](CrossCameraOptions* o) { o->min_angle_deg = 91.0; }),

@@ -68,6 +68,9 @@ class CameraTracker {
   // with derivatives); empty when that image was missing. Valid until the
   // next Track(). The cross-camera matcher reuses it.
   const std::vector<cv::Mat>& Pyramid() const;
+  // The pyramid cross-camera matching reads: Pyramid(), or that of the
+  // unequalised image where CLAHE is on and cross_camera.equalised off.
+  const std::vector<cv::Mat>& CrossCameraPyramid() const;
   // The detector's descriptor layout (Detector::DescriptorSize / DescriptorType).
   int DescriptorSize() const;
   int DescriptorType() const;

@@ -10,16 +10,28 @@
 // so fisheyes beyond 90 deg work). It maps the point at d0 on u's ray to
 // where b sees it; a point at another distance lands elsewhere on u's
 // epipolar curve.
-//  1. b's (CLAHE'd) image is resampled into a's pixel grid through W (a map
-//     computed once per pair and warp distance; cv::remap, bilinear), so the patch around a
+//  1. b's image (the tracker's CLAHE'd one; as decoded with
+//     cross_camera.equalised false) is resampled into a's pixel grid
+//     through W (a map computed once per pair and warp distance; cv::remap,
+//     bilinear, only inside the box b sees), so the patch around a
 //     feature looks in the warped image as in a's: the same scale,
 //     orientation and distortion, whatever the two camera models (a pinhole
 //     against a fisheye's rim differs by 2x in scale and by a rotation, which
 //     plain translational LK cannot follow). Features whose W(u) is outside
 //     b's image or mask are not candidates.
-//  2. Pyramidal LK from a's image (the tracker's pyramid) to the warped one,
-//     starting at u itself (the point at d0), ends at p; b's pixel is W(p),
-//     computed exactly (not interpolated from the map).
+//  2. Pyramidal LK from a's image to the warped one, starting at u itself
+//     (the point at d0), ends at p; b's pixel is W(p), computed exactly (not
+//     interpolated from the map). With normalise_sigma_px > 0 both images
+//     are first normalised to zero mean and unit variance over a local
+//     window, the warped one over the pixels b sees: the cameras' exposures,
+//     vignetting and responses differ, and LK has no gain term. CLAHE (the
+//     default, equalised true) instead maps each camera by its own tone
+//     curves, which vary across a patch and move the match: on kitti360
+//     4-camera urban (k360_urban_s1) the pinhole-fisheye pairs triangulate
+//     points 10-20 m away 0.1-0.2 % too far, and the vignetted multicam6
+//     run's pairs 0.6-1.5 % too near (median; results/anchor_tracking.md).
+//     Off by default until its cost and its losses on two indoor runs are
+//     settled (docs/config.md).
 //  3. Forward-backward: LK back from p to a's image, starting at p (the same
 //     hypothesis seen from the other side), must return within
 //     lk.forward_backward_threshold_px of u.
@@ -146,6 +158,7 @@ class CrossCameraMatcher {
   double max_epipolar_sine_ = 0.0;
   double min_angle_rad_ = 0.0;
   std::vector<WarpMap> warps_;  // init_distance_m, then near_distance_m (if on and different)
+  cv::Rect normalise_roi_a_;    // where a's image is normalised (step 2)
 };
 
 }  // namespace mcvo

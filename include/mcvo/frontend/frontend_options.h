@@ -100,6 +100,16 @@ struct CrossCameraOptions {
   // A second warp through the point this far along a's ray (0: none), for
   // near points (cross_camera.h, step 6).
   double near_distance_m = 4.0;
+  // Match on the tracker's CLAHE'd images (true) or on the images as
+  // decoded (false). CLAHE maps each camera's intensities by its own tiles,
+  // so the same patch differs between two cameras by a tone curve that
+  // varies across it, and LK's match moves (cross_camera.h, step 2).
+  bool equalised = true;
+  // Both images LK compares, a's and b's warped into a's grid, are
+  // normalised to zero mean and unit variance over a Gaussian window of
+  // this standard deviation (pixels; 0: off): exposure, vignetting and the
+  // cameras' different responses cancel the same way in both.
+  double normalise_sigma_px = 0.0;
   // Largest angle between b's bearing and the epipolar plane of a's bearing,
   // in pixels at focal ransac_focal_px (1 px at 460).
   double epipolar_threshold_px = 1.0;
