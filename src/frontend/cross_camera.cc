@@ -174,9 +174,8 @@ CrossCameraMatcher::CrossCameraMatcher(int camera_a, int camera_b, const Camera&
       }
     });
     cv::convertMaps(map_x, map_y, warp.map_xy, warp.map_fraction, CV_16SC2);
-    cv::Mat seen;
-    cv::bitwise_not(warp.unseen, seen);
-    warp.seen_box = cv::boundingRect(seen);
+    cv::bitwise_not(warp.unseen, warp.seen);
+    warp.seen_box = cv::boundingRect(warp.seen);
     normalise_roi_a_ |= warp.seen_box;
     warps_.push_back(std::move(warp));
   }
@@ -231,11 +230,7 @@ void CrossCameraMatcher::MatchThroughWarp(const WarpMap& warp, const std::vector
   const cv::Size window(options_.lk.window_px, options_.lk.window_px);
   std::vector<cv::Mat> pyramid_w;
   const double sigma = options_.cross_camera.normalise_sigma_px;
-  if (sigma > 0.0) {
-    cv::Mat seen;
-    cv::bitwise_not(warp.unseen, seen);
-    warped = LocalNormalise(warped, seen, warp.seen_box, sigma);
-  }
+  if (sigma > 0.0) warped = LocalNormalise(warped, warp.seen, warp.seen_box, sigma);
   cv::buildOpticalFlowPyramid(warped, pyramid_w, window, options_.lk.pyramid_levels);
 
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, options_.lk.max_iterations,

@@ -133,6 +133,7 @@ class CrossCameraMatcher {
   struct WarpMap {
     double distance_m = 0.0;
     cv::Mat map_xy, map_fraction, unseen;
+    cv::Mat seen;  // 255 - unseen: where step 2 normalises the warped image
     // Bounding box of the pixels b sees (unseen == 0); the warped image is 0
     // outside it, so only this part is resampled.
     cv::Rect seen_box;
