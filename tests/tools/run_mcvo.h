@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <system_error>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -52,12 +54,23 @@ inline Result RunMcvoWithin(int seconds, const std::string& args) {
 
 // A scratch folder of this test process, `<TempDir>/<prefix>_<pid>`, emptied
 // and created on the first call for each prefix (call it from one function
-// per file, which keeps it in a static).
+// per file, which keeps it in a static), and removed with everything in it
+// when the process exits (ctest runs each TEST as its own process, so
+// without that every run left one folder per test behind).
 inline std::filesystem::path ProcessScratch(const std::string& prefix) {
+  struct Folders {
+    std::vector<std::filesystem::path> paths;
+    ~Folders() {
+      std::error_code ec;
+      for (const std::filesystem::path& p : paths) std::filesystem::remove_all(p, ec);
+    }
+  };
+  static Folders folders;
   const std::filesystem::path root =
       std::filesystem::path(::testing::TempDir()) / (prefix + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(root);
   std::filesystem::create_directories(root);
+  folders.paths.push_back(root);
   return root;
 }
 
