@@ -18,6 +18,12 @@ using io_internal::JsonReader;
 using OJson = nlohmann::ordered_json;
 
 template <typename V>
+void Visit(V& v, TextureOptions* o) {
+  v.Field("min_gradient", &o->min_gradient);
+  v.Field("noise_factor", &o->noise_factor);
+}
+
+template <typename V>
 void Visit(V& v, ClaheOptions* o) {
   v.Field("enabled", &o->enabled);
   v.Field("clip_limit", &o->clip_limit);
@@ -82,6 +88,7 @@ void Visit(V& v, FrontendOptions* o) {
   v.Field("ransac_threshold_px", &o->ransac_threshold_px);
   v.Field("ransac_focal_px", &o->ransac_focal_px);
   v.Section("clahe", &o->clahe);
+  v.Section("texture", &o->texture);
   v.Section("lk", &o->lk);
   v.Section("anchor", &o->anchor);
   v.Section("superpoint", &o->superpoint);

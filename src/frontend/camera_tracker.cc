@@ -42,6 +42,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "classic_detectors.h"
+#include "texture_gate.h"
 #include "mcvo/frontend/bearing_ransac.h"
 #include "mcvo/frontend/patch_aligner.h"
 #include "mcvo/frontend/selection.h"
@@ -154,7 +155,7 @@ struct CameraTracker::Impl {
   void RefineByAnchor(const cv::Mat& image, std::vector<int>* kept, std::vector<cv::Point2f>* kept_pixels,
                       std::vector<PatchAnchor>* anchors, CameraFrameStats* stats);
   // Detection and selection of new features up to max_features.
-  void AddNewFeatures(const cv::Mat& image, const std::vector<cv::Mat>& pyramid,
+  void AddNewFeatures(const cv::Mat& input, const cv::Mat& image, const std::vector<cv::Mat>& pyramid,
                       CameraFrameResult* result) const;
   // Detections on detection_level, in full-resolution pixels.
   Detections Detect(const cv::Mat& image, const std::vector<cv::Mat>& pyramid, int cap) const;
@@ -266,7 +267,7 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   stats.tracked = static_cast<int>(kept.size());
 
   // 4. Detection and selection of new features.
-  AddNewFeatures(image, pyramid, &result);
+  AddNewFeatures(input, image, pyramid, &result);
   if (options.anchor.enabled) {
     start = Clock::now();
     for (size_t i = anchors.size(); i < result.features.size(); ++i) {
@@ -479,13 +480,34 @@ Detections CameraTracker::Impl::Detect(const cv::Mat& image, const std::vector<c
   return out;
 }
 
-void CameraTracker::Impl::AddNewFeatures(const cv::Mat& image, const std::vector<cv::Mat>& pyramid,
-                                         CameraFrameResult* result) const {
+void CameraTracker::Impl::AddNewFeatures(const cv::Mat& input, const cv::Mat& image,
+                                         const std::vector<cv::Mat>& pyramid, CameraFrameResult* result) const {
   const int wanted = max_features - result->stats.tracked;
   if (wanted <= 0) return;
   auto start = Clock::now();
   const int cap = std::max(1, options.candidate_factor) * wanted;
-  const Detections detections = Detect(image, pyramid, cap);
+  Detections detections = Detect(image, pyramid, cap);
+  const TextureOptions& texture = options.texture;
+  if (texture.min_gradient > 0.0 || texture.noise_factor > 0.0) {
+    // Texture gate (texture_gate.h): on the decoded image, before the
+    // selection, so the budget goes to patches LK can follow.
+    const internal::TextureGate gate(input, options.lk.window_px / 2);
+    const double threshold = gate.Threshold(texture.min_gradient, texture.noise_factor);
+    std::vector<int> keep;
+    for (size_t k = 0; k < detections.size(); ++k) {
+      if (gate.Strength(detections.pixels[k]) >= threshold) keep.push_back(static_cast<int>(k));
+    }
+    result->stats.untextured = static_cast<int>(detections.size() - keep.size());
+    if (keep.size() < detections.size()) {
+      Detections kept;
+      for (int k : keep) {
+        kept.pixels.push_back(detections.pixels[static_cast<size_t>(k)]);
+        kept.scores.push_back(detections.scores[static_cast<size_t>(k)]);
+      }
+      if (!detections.descriptors.empty()) kept.descriptors = SelectRows(detections.descriptors, keep);
+      detections = std::move(kept);
+    }
+  }
   result->stats.seconds_detect = SecondsSince(start);
   start = Clock::now();
   // Two passes: the best `cap` candidates by score first (the first `cap`

@@ -19,6 +19,8 @@ void FrontendOptions::Check() const {
   CheckPositive("/frontend/ransac_focal_px", ransac_focal_px);
   CheckPositive("/frontend/clahe/clip_limit", clahe.clip_limit);
   CheckAtLeast("/frontend/clahe/tile_grid", clahe.tile_grid, 1);
+  CheckAtLeast("/frontend/texture/min_gradient", texture.min_gradient, 0.0);
+  CheckAtLeast("/frontend/texture/noise_factor", texture.noise_factor, 0.0);
   CheckAtLeast("/frontend/lk/window_px", lk.window_px, 3);
   CheckAtLeast("/frontend/lk/pyramid_levels", lk.pyramid_levels, 0);
   CheckAtLeast("/frontend/lk/max_iterations", lk.max_iterations, 1);

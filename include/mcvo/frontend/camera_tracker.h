@@ -30,6 +30,9 @@ struct CameraFrameStats {
   int lost_lk = 0;  // LK failed or left the image / mask
   int lost_forward_backward = 0;
   int lost_anchor = 0;  // the anchor patch no longer matches (FrontendOptions::anchor)
+  // New detections the texture gate turned away (FrontendOptions::texture;
+  // not in the track file).
+  int untextured = 0;
   int ransac_inliers = 0;
   int ransac_outliers = 0;
   int new_features = 0;

@@ -29,6 +29,17 @@ struct ClaheOptions {
   int tile_grid = 8;  // tiles per image side
 };
 
+// Texture gate of new detections (src/frontend/texture_gate.h): kept only
+// where the decoded image's structure tensor over the LK window has a
+// smaller eigenvalue of at least max(min_gradient, noise_factor x the
+// noise's own) (sqrt, grey levels per pixel). CLAHE stretches blank walls
+// into corners that are not there; without the gate they take the budget
+// and die in a frame. Both 0: off.
+struct TextureOptions {
+  double min_gradient = 0.0;
+  double noise_factor = 0.0;
+};
+
 struct LkOptions {
   // Square window side. The published implementation uses 21; on the
   // synthetic urban scene (full-resolution KITTI-360 pinhole, forward
@@ -136,6 +147,7 @@ struct FrontendOptions {
   double ransac_threshold_px = 1.0;
   double ransac_focal_px = 460.0;  // virtual pinhole focal the threshold is expressed at
   ClaheOptions clahe;
+  TextureOptions texture;
   LkOptions lk;
   AnchorOptions anchor;
   SuperPointOptions superpoint;
