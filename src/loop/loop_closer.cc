@@ -402,7 +402,7 @@ struct LoopCloser::Impl {
     const int index = static_cast<int>(entries.size());
     auto start = std::chrono::steady_clock::now();
     const Features features = Extract(keyframe);
-    const BowVector bow = vocabulary.Transform(features.descriptors.rowRange(0, features.num_detections));
+    const BowVector bow = vocabulary.Transform(DetectionDescriptors(features));
     timing.features_s += Seconds(start);
 
     start = std::chrono::steady_clock::now();
@@ -467,6 +467,13 @@ struct LoopCloser::Impl {
     for (const auto& [word, weight] : bow) inverted[word].emplace_back(index, weight);
   }
 
+  // The ORB detections' descriptors (the BoW's words): none when the images
+  // gave no detection (a blank view; rowRange of an empty matrix throws).
+  static cv::Mat DetectionDescriptors(const Features& features) {
+    if (features.num_detections <= 0 || features.descriptors.empty()) return cv::Mat();
+    return features.descriptors.rowRange(0, features.num_detections);
+  }
+
   void CheckImages(const LoopKeyframe& keyframe) const {
     MCVO_CHECK_MSG(static_cast<int>(keyframe.images.size()) == rig.NumCameras(), "keyframe ",
                    keyframe.frame_index, " has ", keyframe.images.size(), " images, the rig ",
@@ -477,7 +484,7 @@ struct LoopCloser::Impl {
     CheckImages(keyframe);
     const auto start = std::chrono::steady_clock::now();
     const Features features = Extract(keyframe);
-    const BowVector bow = vocabulary.Transform(features.descriptors.rowRange(0, features.num_detections));
+    const BowVector bow = vocabulary.Transform(DetectionDescriptors(features));
     timing.features_s += Seconds(start);
     Insert(keyframe, features, bow);
     previous_bow = bow;
@@ -487,7 +494,7 @@ struct LoopCloser::Impl {
     CheckImages(keyframe);
     auto start = std::chrono::steady_clock::now();
     const Features features = Extract(keyframe);
-    const BowVector bow = vocabulary.Transform(features.descriptors.rowRange(0, features.num_detections));
+    const BowVector bow = vocabulary.Transform(DetectionDescriptors(features));
     timing.features_s += Seconds(start);
     start = std::chrono::steady_clock::now();
     // Every keyframe of the map by BoW score (no recency exclusion, no
