@@ -19,6 +19,8 @@
 #                (an A/B run of one setting over the suite; the tables name them)
 #   env SUITE    main (default) | monocular: the one-camera suite instead (16 sequences,
 #                4 one-camera rigs x 4 scenes; results/suite_monocular.md and .csv)
+#                | heldout: 8 sequences of the main suite's rigs and configs on seeds
+#                101-108 that no change was tuned on (results/suite_heldout.md and .csv)
 #   --list       print the sequences, their configs and synth arguments; run nothing
 #
 # What it measures, per run (run.json of each run): frames posed %, segments
@@ -196,7 +198,23 @@ case "$SUITE" in
     suite mroof_indoor_s103_blur  $MROOF      0.8  indoor      103 synthetic --motion-blur 3
     suite mroof_open_s104_noise   $MROOF      0.8  open        104 synthetic --noise 2
     ;;
-  *) echo "bench_suite.sh: SUITE must be main or monocular, got '$SUITE'" >&2; exit 2 ;;
+  heldout)
+    # Held out: rendered and run for the first time on 2026-11-27 (after
+    # every setting they would judge was chosen) to see the suite's targets
+    # on seeds nothing was tuned on. Never tune on them; when a change is
+    # judged on them, add new seeds.
+    OUT_BASE=results/suite_heldout
+    NAMES=() RIGS=() SCALES=() SCENES=() SEEDS=() CONFIGS=() EFFECTS=()
+    suite st_indoor_s101_noise   preset:stereo        0.5  indoor      101 kitti360_2cam --noise 1
+    suite st_block_s102_expo     preset:stereo        0.5  urban_block 102 kitti360_2cam --exposure-changes
+    suite mc6_indoor_s103_vign   preset:multicam6     0.45 indoor      103 multicam6 --vignetting
+    suite mc6_open_s104          preset:multicam6     0.45 open        104 multicam6
+    suite roof_urban_s105_noise  $ROOF                0.8  urban       105 synthetic --noise 1
+    suite tri_block_s106_expo    $TRI                 0.5  urban_block 106 synthetic --exposure-changes
+    suite st_indoor_s107         preset:stereo        0.5  indoor      107 kitti360_2cam
+    suite k3_block_s108          preset:kitti360-3cam 0.5  urban_block 108 kitti360_3cam
+    ;;
+  *) echo "bench_suite.sh: SUITE must be main, monocular or heldout, got '$SUITE'" >&2; exit 2 ;;
 esac
 
 # ---- synth arguments and cache folders ---------------------------------------
@@ -584,6 +602,8 @@ if info["overrides"]:
     subset += f"; every config with SET='{info['overrides']}'"
 monocular = e["SUITE"] == "monocular"
 title = ("# Monocular suite: `mcvo run` on one-camera rigs (SUITE=monocular tools/bench_suite.sh)" if monocular
+         else "# Held-out seeds: `mcvo run` on sequences nothing was tuned on (SUITE=heldout tools/bench_suite.sh)"
+         if e["SUITE"] == "heldout"
          else "# Robustness suite: `mcvo run` on every sequence (tools/bench_suite.sh)")
 measures = (
     "One-camera rigs run at an arbitrary scale (run.json result.scale = \"arbitrary\"), so every run's evaluation "

@@ -19,7 +19,10 @@
 // (2 h + 1)^2 window, h = lk.window_px / 2: the condition LK itself needs
 // (Shi-Tomasi's "good features to track"), on the decoded image. A patch of
 // noise of std sigma alone has ~0.43 sigma (each Sobel / 8 component has std
-// sqrt(12) / 8 sigma).
+// sqrt(12) / 8 sigma). cv::cornerMinEigenVal with a window of that size
+// gives the same quantity for every pixel of the image; the gate needs it
+// at a few hundred candidates, so it sums the window there (OpenCV's Sobel
+// gradients, computed once per image).
 #pragma once
 
 #include <vector>
