@@ -493,18 +493,16 @@ void CameraTracker::Impl::AddNewFeatures(const cv::Mat& input, const cv::Mat& im
     // selection, so the budget goes to patches LK can follow.
     const internal::TextureGate gate(input, options.lk.window_px / 2);
     const double threshold = gate.Threshold(texture.min_gradient, texture.noise_factor);
-    std::vector<int> keep;
+    std::vector<size_t> rows;
     for (size_t k = 0; k < detections.size(); ++k) {
-      if (gate.Strength(detections.pixels[k]) >= threshold) keep.push_back(static_cast<int>(k));
+      if (gate.Strength(detections.pixels[k]) >= threshold) rows.push_back(k);
     }
-    result->stats.untextured = static_cast<int>(detections.size() - keep.size());
-    if (keep.size() < detections.size()) {
-      Detections kept;
-      for (int k : keep) {
-        kept.pixels.push_back(detections.pixels[static_cast<size_t>(k)]);
-        kept.scores.push_back(detections.scores[static_cast<size_t>(k)]);
+    result->stats.untextured = static_cast<int>(detections.size() - rows.size());
+    if (rows.size() < detections.size()) {
+      Detections kept = DetectionRows(detections, rows);
+      if (!detections.descriptors.empty()) {
+        kept.descriptors = SelectRows(detections.descriptors, std::vector<int>(rows.begin(), rows.end()));
       }
-      if (!detections.descriptors.empty()) kept.descriptors = SelectRows(detections.descriptors, keep);
       detections = std::move(kept);
     }
   }
