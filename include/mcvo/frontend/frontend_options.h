@@ -117,9 +117,10 @@ struct CrossCameraOptions {
   // varies across it, and LK's match moves (cross_camera.h, step 2).
   bool equalised = true;
   // Both images LK compares, a's and b's warped into a's grid, are
-  // normalised to zero mean and unit variance over a Gaussian window of
-  // this standard deviation (pixels; 0: off): exposure, vignetting and the
-  // cameras' different responses cancel the same way in both.
+  // normalised to zero mean and unit variance over a box window with the
+  // variance of a Gaussian of this standard deviation (side 2 round(sqrt(3)
+  // sigma) + 1 pixels; 0: off): exposure, vignetting and the cameras'
+  // different responses cancel the same way in both.
   double normalise_sigma_px = 0.0;
   // Largest angle between b's bearing and the epipolar plane of a's bearing,
   // in pixels at focal ransac_focal_px (1 px at 460).
