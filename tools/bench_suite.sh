@@ -239,7 +239,11 @@ scene_revision() {
     # 2026-11-26: rigs lowered to keep every camera 0.3 m under the 2.8 m
     # ceiling (synthesize.cc, FitRigHeight); irregular5, tri_rear and
     # roof_pair had cameras in or above it.
-    indoor) echo "indoor: rig fitted under the ceiling" ;;
+    # 2026-11-27: rigs carried by the middle of their cameras, doorways open
+    # to the ceiling (synthesize.cc, FitRigToRoom; scene_indoor.cc): the
+    # KITTI-360 rigs' cameras, 1.6 m ahead of their origin, swung through
+    # the walls at the corners and passed through the doorways' lintels.
+    indoor) echo "indoor: rig fitted under the ceiling; carried by the middle of its cameras" ;;
   esac
 }
 seq_dir() {  # index -> SEQ_DIR (needs SYNTH_ARGS of that index)

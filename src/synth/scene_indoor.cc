@@ -46,10 +46,8 @@ class IndoorBuilder {
     Wall({w_ - r, r}, {w_ - r, h_ - r}, {-1, 0}, true);
     Wall({w_ - r, h_ - r}, {r, h_ - r}, {0, -1}, true);
     Wall({r, h_ - r}, {r, r}, {1, 0}, true);
-    for (double x : {xa_, xb_}) {  // lintels over the doorways
-      scene().AddQuad(internal::VerticalQuad({x + kDoorwayHalf, h_ + r}, {x - kDoorwayHalf, h_ + r}, 2.2,
-                                             kHeight - 2.2, Material::kWallPaint, rng_.Seed32()));
-    }
+    // The doorways are open up to the ceiling: a rig carried by hand may
+    // have cameras above head height (synthesize.cc, FitRigToRoom).
     // Lab walls, facing into the lab (decorated with the furniture).
     Wall({l0_, lab_y1}, {l0_, lab_y0}, {1, 0}, false);
     Wall({l0_ + kLabX, lab_y0}, {l0_ + kLabX, lab_y1}, {-1, 0}, false);

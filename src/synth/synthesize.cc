@@ -2,10 +2,12 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string_view>
 #include <system_error>
@@ -63,17 +65,76 @@ Rig ResolveRig(const SynthOptions& options) {
   return rig;
 }
 
-// The trajectory of RouteTrajectorySpec, with the rig lowered where the
-// scene has a ceiling and a camera would come within kCeilingClearanceM of
-// it anywhere on the route (the route's sway and bob included): a rig
-// built for a car roof (cameras 1.2 to 1.9 m above its origin) carried
-// through a 2.8 m corridor would otherwise put its cameras in or above the
-// ceiling, looking at the ceiling's back from a few centimetres. Throws
-// UsageError when the cameras span more height than the room leaves.
-TrajectorySpec FitRigHeight(const SceneWithRoute& world, const Rig& rig, const std::string& scene_name,
+// Horizontal centre (rig x forward, y right; z = 0) of the box around the
+// rig's camera centres: the point a person carrying the rig keeps on the
+// corridor's centre line, so that the cameras swing least far from it.
+Eigen::Vector3d CameraCentreInRig(const Rig& rig) {
+  if (rig.cameras.empty()) return Eigen::Vector3d::Zero();
+  Eigen::Vector3d low = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d high = -low;
+  for (const Camera& camera : rig.cameras) {
+    const Eigen::Vector3d centre = camera.cam_from_rig.Inverse().translation;
+    low = low.cwiseMin(centre);
+    high = high.cwiseMax(centre);
+  }
+  const Eigen::Vector3d middle = 0.5 * (low + high);
+  return {middle.x(), middle.y(), 0.0};
+}
+
+// Throws UsageError when a camera is behind a wall in a frame to be
+// rendered (`world_from_rig` at `times_ns`): the segment from the route
+// point (on the centre line, in the room) to the camera centre must not
+// cross the scene's static geometry, nor come within kWallClearanceM of it.
+// Only scenes with a ceiling (rooms and corridors) are checked.
+void CheckCamerasInRoom(const SceneWithRoute& world, const TrajectorySpec& spec, const Rig& rig,
+                        const std::string& scene_name, const std::function<Rigid3d(int64_t)>& world_from_rig,
+                        const std::vector<int64_t>& times_ns, double period_s) {
+  if (!(world.ceiling_height_m > 0.0)) return;
+  const Eigen::Vector3d carried(spec.route_point_in_rig.x(), spec.route_point_in_rig.y(), 0.0);
+  for (const Camera& camera : rig.cameras) {
+    int first = -1, frames = 0;
+    double reach = 0.0;
+    for (size_t k = 0; k < times_ns.size(); ++k) {
+      const Rigid3d pose = world_from_rig(times_ns[k]);
+      const Eigen::Vector3d route_point = pose * carried;
+      const Eigen::Vector3d centre = (pose * camera.cam_from_rig.Inverse()).translation;
+      const Eigen::Vector3d ray = centre - route_point;
+      const double length = ray.norm();
+      if (!(length > 1e-6)) continue;
+      const std::optional<Hit> hit =
+          world.scene.Intersect(route_point, ray / length, times_ns[k], 1e-4, length + kWallClearanceM);
+      if (!hit || hit->moving_object >= 0) continue;
+      if (first < 0) first = static_cast<int>(k);
+      ++frames;
+      reach = length;
+    }
+    if (frames == 0) continue;
+    throw UsageError(StrCat("camera ", camera.name, " would be behind (or within ", FormatFixed(kWallClearanceM, 2),
+                            " m of) a wall of scene '", scene_name, "' in ", frames, " frame(s) from frame ", first,
+                            " (", FormatFixed(first * period_s, 2), " s): it is ", FormatFixed(reach, 2),
+                            " m from the rig's carrying point (the middle of its cameras), which follows the route, and the scene's "
+                            "corridors leave less; render fewer frames or another scene"));
+  }
+}
+
+// The trajectory of RouteTrajectorySpec, fitted to a scene with a ceiling
+// (rooms and corridors), where a rig built for a car is carried by hand:
+//  * it is carried by the centre of its cameras (CameraCentreInRig): a
+//    KITTI-360 rig's cameras sit 1.6 m ahead of its origin, so a rig that
+//    followed the centre line by its origin swung them through the wall at
+//    a corridor's corner;
+//  * it is lowered where a camera would come within kCeilingClearanceM of
+//    the ceiling anywhere on the route (the route's sway and bob
+//    included): a rig built for a car roof (cameras 1.2 to 1.9 m above its
+//    origin) carried through a 2.8 m corridor would otherwise put its
+//    cameras in or above the ceiling, looking at the ceiling's back from a
+//    few centimetres.
+// Throws UsageError when the cameras span more height than the room leaves.
+TrajectorySpec FitRigToRoom(const SceneWithRoute& world, const Rig& rig, const std::string& scene_name,
                             uint64_t seed) {
   TrajectorySpec spec = RouteTrajectorySpec(world, seed);
   if (!(world.ceiling_height_m > 0.0)) return spec;
+  spec.route_point_in_rig = CameraCentreInRig(rig);
   const SmoothTrajectory trajectory(spec);
   double lowest = std::numeric_limits<double>::infinity();
   double highest = -lowest;
@@ -87,16 +148,17 @@ TrajectorySpec FitRigHeight(const SceneWithRoute& world, const Rig& rig, const s
     }
   }
   const double top = world.ceiling_height_m - kCeilingClearanceM;
-  if (highest <= top) return spec;
-  const double drop = highest - top;
-  if (lowest - drop < kFloorClearanceM) {
-    throw UsageError(StrCat("the rig's cameras span ", FormatFixed(highest - lowest, 2),
-                            " m in height on scene '", scene_name, "', more than its ",
-                            FormatFixed(world.ceiling_height_m, 2), " m ceiling leaves (",
-                            FormatFixed(kFloorClearanceM, 2), " m above the floor, ",
-                            FormatFixed(kCeilingClearanceM, 2), " m below the ceiling)"));
+  if (highest > top) {
+    const double drop = highest - top;
+    if (lowest - drop < kFloorClearanceM) {
+      throw UsageError(StrCat("the rig's cameras span ", FormatFixed(highest - lowest, 2),
+                              " m in height on scene '", scene_name, "', more than its ",
+                              FormatFixed(world.ceiling_height_m, 2), " m ceiling leaves (",
+                              FormatFixed(kFloorClearanceM, 2), " m above the floor, ",
+                              FormatFixed(kCeilingClearanceM, 2), " m below the ceiling)"));
+    }
+    spec.rig_height_m -= drop;
   }
-  spec.rig_height_m -= drop;
   return spec;
 }
 
@@ -218,7 +280,7 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
                             " but the rig has ", rig.NumCameras(), " cameras"));
   }
   const SceneWithRoute world = BuildScene(scene_name, options.seed);
-  const TrajectorySpec spec = FitRigHeight(world, rig, scene_name, options.seed);
+  const TrajectorySpec spec = FitRigToRoom(world, rig, scene_name, options.seed);
   const SmoothTrajectory trajectory(spec);
   const double period_s = 1.0 / options.frame_rate_hz;
   const int64_t period_ns = std::llround(period_s * 1e9);
@@ -279,6 +341,9 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
     if (options.stops.Empty()) return trajectory.WorldFromRig(t_ns);
     return trajectory.WorldFromRig(std::llround(options.stops.RouteSeconds(static_cast<double>(t_ns) * 1e-9) * 1e9));
   };
+  std::vector<int64_t> times_ns(static_cast<size_t>(frames));
+  for (int frame = 0; frame < frames; ++frame) times_ns[static_cast<size_t>(frame)] = frame * period_ns;
+  CheckCamerasInRoom(world, spec, rig, scene_name, world_from_rig, times_ns, period_s);
   Trajectory ground_truth;
   ground_truth.has_time = true;
   const auto start = std::chrono::steady_clock::now();

@@ -204,6 +204,7 @@ SmoothTrajectory::SmoothTrajectory(const TrajectorySpec& spec) : spec_(spec) {
                      spec.max_lateral_accel_mps2);
   }
   if (!std::isfinite(spec.rig_height_m)) MCVO_THROW_INPUT("trajectory: rig_height_m must be finite");
+  if (!spec.route_point_in_rig.allFinite()) MCVO_THROW_INPUT("trajectory: route_point_in_rig must be finite");
   std::vector<Eigen::Vector2d> points;
   for (const Eigen::Vector3d& w : spec.waypoints) {
     if (!w.allFinite()) MCVO_THROW_INPUT("trajectory: waypoint ", points.size(), " is not finite");
@@ -440,7 +441,9 @@ Rigid3d SmoothTrajectory::PoseAtSeconds(double t_s) const {
   const Eigen::Quaterniond world_from_flu = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
                                             Eigen::AngleAxisd(-pitch, Eigen::Vector3d::UnitY()) *
                                             Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
-  return Rigid3d(world_from_flu * flu_from_rig, Eigen::Vector3d(xy.x(), xy.y(), z));
+  const Eigen::Quaterniond world_from_rig = world_from_flu * flu_from_rig;
+  const Eigen::Vector3d carried(spec_.route_point_in_rig.x(), spec_.route_point_in_rig.y(), 0.0);
+  return Rigid3d(world_from_rig, Eigen::Vector3d(xy.x(), xy.y(), z) - world_from_rig * carried);
 }
 
 double SmoothTrajectory::Seconds(int64_t t_ns) const {

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include <opencv2/imgcodecs.hpp>
@@ -11,6 +13,7 @@
 #include "mcvo/io/rig_io.h"
 #include "mcvo/io/trajectory_io.h"
 #include "mcvo/synth/scene.h"
+#include "mcvo/synth/trajectory.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 
@@ -176,13 +179,14 @@ struct IndoorRoute {
   Trajectory ground_truth;
   double rig_height_m = 0.0;
 };
+constexpr uint64_t kIndoorSeed = 3;  // irregular5 fits its whole route (not every seed: see below)
 IndoorRoute RenderIndoorRoute(const std::string& preset, const std::string& name) {
   SynthOptions options;
   options.preset = preset;
   options.scene = "indoor";
   options.frame_rate_hz = 1.0;
   options.image_scale = 0.05;
-  options.seed = 43;
+  options.seed = kIndoorSeed;
   options.render.samples_per_axis = 1;
   const fs::path out = TempDir(name);
   Synthesize(options, out);
@@ -241,6 +245,85 @@ TEST(Synthesize, ARigTallerThanTheRoomIsRefused) {
     ADD_FAILURE() << "no error";
   } catch (const UsageError& e) {
     EXPECT_NE(std::string(e.what()).find("more than its 2.80 m ceiling leaves"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// Whether a point is inside the indoor scene's rooms: the ceiling, and
+// nothing else, is straight above it (outside the building, or inside the
+// office block the corridors ring, there is no ceiling).
+bool UnderTheCeiling(const Scene& scene, const Eigen::Vector3d& point) {
+  const std::optional<Hit> up = scene.Intersect(point, Eigen::Vector3d::UnitZ(), 0);
+  return up.has_value() && std::abs(up->point.z() - 2.8) < 1e-6;
+}
+
+// The KITTI-360 pair sits 1.6 m ahead of its rig's origin and 0.6 m apart.
+// Carried through the corridors by its origin, a camera swung out through
+// the wall at the corners and rendered the outside of the building. synth
+// carries a rig by the middle of its cameras: every camera stays in the
+// rooms on the whole route.
+TEST(Synthesize, IndoorRigsAreCarriedByTheMiddleOfTheirCameras) {
+  const SceneWithRoute world = BuildScene("indoor", kIndoorSeed);
+  const Rig stereo = PresetRig("stereo");
+  {  // the route followed by the origin, as before
+    const SmoothTrajectory by_origin(RouteTrajectorySpec(world, kIndoorSeed));
+    int outside = 0;
+    for (int64_t t_ns = 0; t_ns <= by_origin.DurationNs(); t_ns += 100'000'000) {
+      for (const Camera& camera : stereo.cameras) {
+        outside += UnderTheCeiling(world.scene, (by_origin.WorldFromRig(t_ns) * camera.cam_from_rig.Inverse()).translation)
+                       ? 0
+                       : 1;
+      }
+    }
+    EXPECT_GT(outside, 0);
+  }
+  const IndoorRoute route = RenderIndoorRoute("stereo", "carried_stereo");
+  ASSERT_GT(route.ground_truth.poses.size(), 50u);
+  for (const StampedPose& pose : route.ground_truth.poses) {
+    Eigen::Vector3d middle = Eigen::Vector3d::Zero();
+    for (const Camera& camera : route.rig.cameras) {
+      const Eigen::Vector3d centre = (pose.world_from_body * camera.cam_from_rig.Inverse()).translation;
+      EXPECT_TRUE(UnderTheCeiling(world.scene, centre)) << camera.name << " at frame " << pose.frame_index;
+      middle += centre / static_cast<double>(route.rig.NumCameras());
+    }
+    // The middle of the pair keeps to the corridor (2.4 m wide; the route's
+    // sway is a few cm): at least 0.9 m from every wall around it.
+    for (int k = 0; k < 8; ++k) {
+      const double a = k * M_PI / 4.0;
+      const std::optional<Hit> wall =
+          world.scene.Intersect(middle, Eigen::Vector3d(std::cos(a), std::sin(a), 0.0), 0);
+      ASSERT_TRUE(wall.has_value());
+      EXPECT_GT(wall->distance, 0.9) << "frame " << pose.frame_index << " direction " << k;
+    }
+  }
+}
+
+// A rig wider than the 2.4 m corridors (its cameras 5 m apart, side by
+// side: camera x is rig y) is refused before anything is rendered: the
+// camera is named, nothing is written.
+TEST(Synthesize, ARigWiderThanTheCorridorsIsRefused) {
+  Rig rig = PresetRig("stereo");
+  Camera& camera = rig.cameras[1];
+  camera.cam_from_rig.translation =
+      rig.cameras[0].cam_from_rig.translation + camera.cam_from_rig.RotationMatrix() * Eigen::Vector3d(5.0, 0, 0);
+  const fs::path out = TempDir("wide");
+  const fs::path rig_path = out.parent_path() / "wide_rig.json";
+  WriteRig(rig_path, rig);
+  SynthOptions options;
+  options.rig_path = rig_path;
+  options.scene = "indoor";
+  options.frames = 0;
+  options.frame_rate_hz = 1.0;
+  options.image_scale = 0.05;
+  try {
+    Synthesize(options, out);
+    ADD_FAILURE() << "no error";
+  } catch (const UsageError& e) {
+    // Both cameras are 2.5 m from the middle; the first one found is named.
+    EXPECT_NE(std::string(e.what()).find("camera image_0"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("would be behind (or within 0.05 m of) a wall of scene 'indoor'"),
+              std::string::npos)
+        << e.what();
   }
   EXPECT_FALSE(fs::exists(out));
 }

@@ -153,9 +153,11 @@ struct SceneWithRoute {
   MotionStyle style = MotionStyle::kVehicle;
   double speed_mps = 10.0;
   double rig_height_m = 1.2;  // height of the rig origin above the ground
-  // Height of the ceiling over the whole route, 0 for open sky. `mcvo synth`
+  // Height of the ceiling over the whole route, 0 for open sky. Where there
+  // is one, `mcvo synth` carries the rig by the centre of its cameras,
   // lowers a rig whose cameras would come closer to it than
-  // kCeilingClearanceM (synthesize.cc, FitRigHeight).
+  // kCeilingClearanceM and refuses one whose cameras reach within
+  // kWallClearanceM of a wall (synthesize.cc, FitRigToRoom).
   double ceiling_height_m = 0.0;
 };
 
@@ -163,6 +165,9 @@ struct SceneWithRoute {
 // a scene with a ceiling, anywhere on the route.
 inline constexpr double kCeilingClearanceM = 0.3;
 inline constexpr double kFloorClearanceM = 0.2;
+// Least distance between a camera centre and a wall it would otherwise pass
+// behind (along the line from the route's centre line to the camera).
+inline constexpr double kWallClearanceM = 0.05;
 
 // Scene builders. Deterministic for a seed.
 // urban: a grid of streets with building facades on both sides,

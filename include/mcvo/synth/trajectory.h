@@ -44,6 +44,11 @@ struct TrajectorySpec {
   double max_lateral_accel_mps2 = 2.5;  // slows down in turns to respect this
   double rig_height_m = 1.2;
   uint64_t seed = 0;  // small pitch/roll/sway variation
+  // The point of the rig frame (x forward, y right) that follows the route
+  // at rig_height_m; its z is not used. The origin by default; `mcvo synth`
+  // carries a rig through rooms by the centre of its cameras
+  // (synthesize.cc FitRigToRoom), as a person would.
+  Eigen::Vector3d route_point_in_rig = Eigen::Vector3d::Zero();
 };
 
 // The trajectory `mcvo synth` drives through a scene: its route, closure,
