@@ -12,8 +12,9 @@
 #   env ONLY     a regex (bash =~) on sequence names: run only those
 #   env SCALE    multiplies every image scale (default 1; below 1 only for a smoke test,
 #                e.g. FRAMES=12 SCALE=0.4 ONLY='^(st_urban_s21_noise|tri_indoor_s52_noise)$')
-#   env OUT_BASE where the tables go (default results/suite; with ONLY, name another,
-#                e.g. results/suite_near_warp, so the whole suite's tables stay)
+#   env OUT_BASE where the tables go (default results/suite, results/suite_monocular,
+#                results/suite_heldout by SUITE; with ONLY, name another, e.g.
+#                results/suite_near_warp, so the whole suite's tables stay)
 #   env SET      config overrides for every run, space-separated key=JSON pairs, e.g.
 #                SET='frontend.cross_camera.equalised=false frontend.cross_camera.normalise_sigma_px=8'
 #                (an A/B run of one setting over the suite; the tables name them)
@@ -172,11 +173,12 @@ suite roof_open_s64_blackout $ROOF                0.8  open        64 synthetic 
 # (yawed and pitched), roof_pair's radtan camera (14 deg down); each at least
 # 0.7 m from its rig origin. Every rig in every scene, seeds and effects varied.
 SUITE=${SUITE:-main}
+USER_OUT_BASE=${OUT_BASE:-}
 OUT_BASE=${OUT_BASE:-results/suite}
 case "$SUITE" in
   main) ;;
   monocular)
-    OUT_BASE=results/suite_monocular
+    OUT_BASE=${USER_OUT_BASE:-results/suite_monocular}
     NAMES=() RIGS=() SCALES=() SCENES=() SEEDS=() CONFIGS=() EFFECTS=()
     MFISH=config/rigs/suite/mono_fisheye.json
     MKB=config/rigs/suite/mono_kb.json
@@ -203,7 +205,7 @@ case "$SUITE" in
     # every setting they would judge was chosen) to see the suite's targets
     # on seeds nothing was tuned on. Never tune on them; when a change is
     # judged on them, add new seeds.
-    OUT_BASE=results/suite_heldout
+    OUT_BASE=${USER_OUT_BASE:-results/suite_heldout}
     NAMES=() RIGS=() SCALES=() SCENES=() SEEDS=() CONFIGS=() EFFECTS=()
     suite st_indoor_s101_noise   preset:stereo        0.5  indoor      101 kitti360_2cam --noise 1
     suite st_block_s102_expo     preset:stereo        0.5  urban_block 102 kitti360_2cam --exposure-changes

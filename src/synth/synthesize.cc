@@ -109,10 +109,12 @@ void CheckCamerasInRoom(const SceneWithRoute& world, const TrajectorySpec& spec,
       reach = length;
     }
     if (frames == 0) continue;
-    throw UsageError(StrCat("camera ", camera.name, " would be behind (or within ", FormatFixed(kWallClearanceM, 2),
-                            " m of) a wall of scene '", scene_name, "' in ", frames, " frame(s) from frame ", first,
-                            " (", FormatFixed(first * period_s, 2), " s): it is ", FormatFixed(reach, 2),
-                            " m from the rig's carrying point (the middle of its cameras), which follows the route, and the scene's "
+    throw UsageError(StrCat("camera ", camera.name, " would be behind (or within ",
+                            FormatFixed(kWallClearanceM, 2), " m of) a wall of scene '", scene_name, "' in ",
+                            frames, " frame(s) from frame ", first, " (", FormatFixed(first * period_s, 2),
+                            " s): it is ", FormatFixed(reach, 2),
+                            " m from the rig's carrying point (the middle of its cameras), which follows the "
+                            "route, and the scene's "
                             "corridors leave less; render fewer frames or another scene"));
   }
 }
@@ -177,6 +179,7 @@ std::string MetaJson(const SynthOptions& options, const std::string& scene_name,
   j["route_length_m"] = route_length_m;
   j["route_closed"] = scene.route_closed;
   j["rig_height_m"] = spec.rig_height_m;
+  j["route_point_in_rig_m"] = {spec.route_point_in_rig.x(), spec.route_point_in_rig.y()};
   j["samples_per_axis"] = options.render.samples_per_axis;
   const RenderEffects& e = options.render.effects;
   j["effects"] = {
@@ -187,13 +190,14 @@ std::string MetaJson(const SynthOptions& options, const std::string& scene_name,
       {"exposure_time_s", e.exposure_time_s},
       {"moving_objects", scene.scene.moving_objects().size()},
       {"blackout_camera", e.blackout_camera == RenderEffects::kBlackoutAllCameras ? std::string("all")
-                          : e.blackout_camera < 0                                   ? std::string()
-                                                                                    : rig.cameras[e.blackout_camera].name},
+                          : e.blackout_camera < 0                                 ? std::string()
+                                                  : rig.cameras[e.blackout_camera].name},
       {"blackout_first_frame", e.blackout_first_frame},
       {"blackout_num_frames", e.blackout_num_frames}};
   if (!options.stops.Empty()) {
     nlohmann::ordered_json stops = nlohmann::ordered_json::array();
-    for (const Stop& stop : options.stops.stops) stops.push_back({{"at_s", stop.at_s}, {"duration_s", stop.duration_s}});
+    for (const Stop& stop : options.stops.stops)
+      stops.push_back({{"at_s", stop.at_s}, {"duration_s", stop.duration_s}});
     j["standing"] = {{"stand_s", options.stops.stand_s}, {"ramp_s", options.stops.ramp_s}, {"stops", stops}};
   }
   nlohmann::ordered_json cameras = nlohmann::ordered_json::array();
@@ -339,7 +343,8 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
   // Route time of a sequence instant (stops.h); the identity without stops.
   const auto world_from_rig = [&](int64_t t_ns) {
     if (options.stops.Empty()) return trajectory.WorldFromRig(t_ns);
-    return trajectory.WorldFromRig(std::llround(options.stops.RouteSeconds(static_cast<double>(t_ns) * 1e-9) * 1e9));
+    return trajectory.WorldFromRig(
+        std::llround(options.stops.RouteSeconds(static_cast<double>(t_ns) * 1e-9) * 1e9));
   };
   std::vector<int64_t> times_ns(static_cast<size_t>(frames));
   for (int frame = 0; frame < frames; ++frame) times_ns[static_cast<size_t>(frame)] = frame * period_ns;
@@ -352,9 +357,7 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
     FrameTableRow row;
     row.t_ns = options.first_t_ns + t_rel_ns;
     for (int c = 0; c < rig.NumCameras(); ++c) {
-      const cv::Mat image = RenderImage(
-          world.scene, rig, c, world_from_rig, t_rel_ns, frame,
-          options.render);
+      const cv::Mat image = RenderImage(world.scene, rig, c, world_from_rig, t_rel_ns, frame, options.render);
       const std::string relative = "images/" + rig.cameras[c].name + "/" + FrameFileName(frame);
       WritePng(staging.path() / relative, image);
       row.image_paths.push_back(relative);

@@ -190,8 +190,8 @@ IndoorRoute RenderIndoorRoute(const std::string& preset, const std::string& name
   options.render.samples_per_axis = 1;
   const fs::path out = TempDir(name);
   Synthesize(options, out);
-  IndoorRoute route{ReadRig(out / "rig.json"), ReadTrajectory(out / "groundtruth.tum", TrajectoryFormat::kTum),
-                    0.0};
+  IndoorRoute route{ReadRig(out / "rig.json"),
+                    ReadTrajectory(out / "groundtruth.tum", TrajectoryFormat::kTum), 0.0};
   const std::string meta = ReadFileToString(out / "meta.json");
   const size_t at = meta.find("\"rig_height_m\": ");
   EXPECT_NE(at, std::string::npos);
@@ -216,7 +216,8 @@ TEST(Synthesize, IndoorRigsAreFittedUnderTheCeiling) {
     }
   }
   EXPECT_LE(highest, 2.8 - kCeilingClearanceM + 1e-9);
-  EXPECT_GT(highest, 2.8 - kCeilingClearanceM - 0.05);  // lowered no more than needed (route sampled at 20 Hz)
+  EXPECT_GT(highest,
+            2.8 - kCeilingClearanceM - 0.05);  // lowered no more than needed (route sampled at 20 Hz)
   EXPECT_GE(lowest, kFloorClearanceM);
   EXPECT_LT(tall.rig_height_m, 1.4 - 0.5);
 
@@ -230,8 +231,8 @@ TEST(Synthesize, ARigTallerThanTheRoomIsRefused) {
   Rig rig = PresetRig("stereo");
   Camera& camera = rig.cameras[1];
   // Its centre 3 m above camera 0's (rig axes: z down).
-  camera.cam_from_rig.translation =
-      rig.cameras[0].cam_from_rig.translation + camera.cam_from_rig.RotationMatrix() * Eigen::Vector3d(0, 0, 3.0);
+  camera.cam_from_rig.translation = rig.cameras[0].cam_from_rig.translation +
+                                    camera.cam_from_rig.RotationMatrix() * Eigen::Vector3d(0, 0, 3.0);
   const fs::path out = TempDir("tall");
   const fs::path rig_path = out.parent_path() / "tall_rig.json";
   WriteRig(rig_path, rig);
@@ -244,7 +245,8 @@ TEST(Synthesize, ARigTallerThanTheRoomIsRefused) {
     Synthesize(options, out);
     ADD_FAILURE() << "no error";
   } catch (const UsageError& e) {
-    EXPECT_NE(std::string(e.what()).find("more than its 2.80 m ceiling leaves"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("more than its 2.80 m ceiling leaves"), std::string::npos)
+        << e.what();
   }
   EXPECT_FALSE(fs::exists(out));
 }
@@ -270,7 +272,8 @@ TEST(Synthesize, IndoorRigsAreCarriedByTheMiddleOfTheirCameras) {
     int outside = 0;
     for (int64_t t_ns = 0; t_ns <= by_origin.DurationNs(); t_ns += 100'000'000) {
       for (const Camera& camera : stereo.cameras) {
-        outside += UnderTheCeiling(world.scene, (by_origin.WorldFromRig(t_ns) * camera.cam_from_rig.Inverse()).translation)
+        outside += UnderTheCeiling(world.scene,
+                                   (by_origin.WorldFromRig(t_ns) * camera.cam_from_rig.Inverse()).translation)
                        ? 0
                        : 1;
       }
@@ -304,8 +307,8 @@ TEST(Synthesize, IndoorRigsAreCarriedByTheMiddleOfTheirCameras) {
 TEST(Synthesize, ARigWiderThanTheCorridorsIsRefused) {
   Rig rig = PresetRig("stereo");
   Camera& camera = rig.cameras[1];
-  camera.cam_from_rig.translation =
-      rig.cameras[0].cam_from_rig.translation + camera.cam_from_rig.RotationMatrix() * Eigen::Vector3d(5.0, 0, 0);
+  camera.cam_from_rig.translation = rig.cameras[0].cam_from_rig.translation +
+                                    camera.cam_from_rig.RotationMatrix() * Eigen::Vector3d(5.0, 0, 0);
   const fs::path out = TempDir("wide");
   const fs::path rig_path = out.parent_path() / "wide_rig.json";
   WriteRig(rig_path, rig);
