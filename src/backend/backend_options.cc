@@ -24,6 +24,7 @@ void BackendOptions::Check() const {
   CheckPositive("/backend/scale_correction_max_sigma", scale_correction_max_sigma);
   CheckAtLeast("/backend/scale_correction_sigma_factor", scale_correction_sigma_factor, 1.0);
   CheckAtLeast("/backend/scale_correction_min_rotation_deg", scale_correction_min_rotation_deg, 0.0);
+  CheckAtLeast("/backend/scale_correction_min_travel_m", scale_correction_min_travel_m, 0.0);
   CheckAtLeast("/backend/reverse_pass_overlap_frames", reverse_pass_overlap_frames, 10);
 }
 

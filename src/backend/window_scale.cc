@@ -14,12 +14,10 @@
 namespace mcvo::backend_internal {
 namespace {
 
-// Iterations of the rig BA; the window must travel at least this far; a
-// camera's own ratio needs this many landmarks. (A measurement more than
+// Iterations of the rig BA; a camera's own ratio needs this many landmarks. (A measurement more than
 // ScaleFilterOptions::max_innovation_sigmas = 4 from the current scale is
 // an outlier.)
 constexpr int kScaleCorrectionIterations = 20;
-constexpr double kMinCorrectionTravelM = 2.0;
 constexpr size_t kMinCameraDepthRatios = 10;
 
 ScaleFilter MakeFilter(const BackendOptions& options) {
@@ -80,9 +78,10 @@ WindowScaleCorrector::Outcome WindowScaleCorrector::Correct(const WindowFrame& n
   if (!ba.ok) return log(StrCat("not applied: rig BA failed: ", ba.reason));
   const double current_travel = (poses.back().translation - poses.front().translation).norm();
   entry.rms_reprojection_px = ba.rms_reprojection_px;
-  if (!(current_travel > kMinCorrectionTravelM)) {
+  if (!(current_travel > options_.scale_correction_min_travel_m)) {
     return log(StrCat("not applied: window travel ", FormatFixed(current_travel, 2), " m < ",
-                      FormatFixed(kMinCorrectionTravelM, 2), " m"));
+                      FormatFixed(options_.scale_correction_min_travel_m, 2),
+                      " m (backend.scale_correction_min_travel_m)"));
   }
   const double ratio = ba.travel_m / current_travel;
   const double sigma = options_.scale_correction_sigma_factor * ba.travel_relative_sigma;

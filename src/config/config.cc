@@ -173,6 +173,7 @@ void Visit(V& v, BackendOptions* o) {
   v.Field("scale_correction_max_sigma", &o->scale_correction_max_sigma);
   v.Field("scale_correction_sigma_factor", &o->scale_correction_sigma_factor);
   v.Field("scale_correction_min_rotation_deg", &o->scale_correction_min_rotation_deg);
+  v.Field("scale_correction_min_travel_m", &o->scale_correction_min_travel_m);
   v.Field("refine_extrinsics", &o->refine_extrinsics);
   v.Field("reverse_pass", &o->reverse_pass);
   v.Field("reverse_pass_overlap_frames", &o->reverse_pass_overlap_frames);

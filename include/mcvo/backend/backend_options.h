@@ -45,7 +45,9 @@ struct BackendOptions {
   // factor before the tests and the fusion.
   double scale_correction_sigma_factor = 3.0;
   double scale_correction_min_rotation_deg =
-      10.0;                        // windows turning less are not used (no overlap: no scale)
+      10.0;  // windows turning less are not used (no overlap: no scale)
+  // ... nor windows whose first and newest frames are less far apart.
+  double scale_correction_min_travel_m = 2.0;
   bool refine_extrinsics = false;  // camera 0's extrinsic stays fixed (gauge)
   // Offline completion (reverse_pass.h): the frames before each segment's
   // initialisation are posed by the estimator run backwards from it, at the
