@@ -31,7 +31,7 @@ struct BackendOptions {
   int keyframe_min_tracked = 20;       // fewer tracked landmarks in a camera: keyframe
   double outlier_threshold_px = 3.0;   // observations above this after BA are removed
   double pnp_threshold_px = 2.0;       // rig absolute pose inlier threshold, at virtual_focal_px
-  int min_pnp_inliers = 12;
+  int min_pnp_inliers = 8;  // fewer over all cameras: tracking is lost (a 6-DoF pose, RANSAC inliers)
   int scale_correction_period = 50;            // solves between scale corrections; 0: never
   double scale_correction_min_change = 0.002;  // relative change below which none is applied
   // Scale corrections are fused with the current scale, weighted by their
