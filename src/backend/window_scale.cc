@@ -14,9 +14,9 @@
 namespace mcvo::backend_internal {
 namespace {
 
-// Iterations of the rig BA; a camera's own ratio needs this many landmarks. (A measurement more than
-// ScaleFilterOptions::max_innovation_sigmas = 4 from the current scale is
-// an outlier.)
+// Iterations of the rig BA; a camera's own ratio needs this many
+// landmarks. (A measurement more than ScaleFilterOptions::
+// max_innovation_sigmas = 4 from the current scale is an outlier.)
 constexpr int kScaleCorrectionIterations = 20;
 constexpr size_t kMinCameraDepthRatios = 10;
 
