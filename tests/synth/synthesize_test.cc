@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -225,30 +226,41 @@ TEST(Synthesize, IndoorRigsAreFittedUnderTheCeiling) {
   EXPECT_EQ(fits.rig_height_m, 1.4);
 }
 
-// A rig taller than the room leaves cannot be fitted: a usage error, and
-// nothing is written.
-TEST(Synthesize, ARigTallerThanTheRoomIsRefused) {
+// The stereo preset with camera 1's centre at camera 0's minus
+// `offset_in_rig` (rig axes: x forward, y right, z down), rendered indoors:
+// must be refused with a usage error containing every one of `messages`,
+// leaving nothing behind.
+void ExpectStereoVariantRefusedIndoors(const std::string& name, const Eigen::Vector3d& offset_in_rig,
+                                       int frames, const std::vector<std::string>& messages) {
   Rig rig = PresetRig("stereo");
   Camera& camera = rig.cameras[1];
-  // Its centre 3 m above camera 0's (rig axes: z down).
-  camera.cam_from_rig.translation = rig.cameras[0].cam_from_rig.translation +
-                                    camera.cam_from_rig.RotationMatrix() * Eigen::Vector3d(0, 0, 3.0);
-  const fs::path out = TempDir("tall");
-  const fs::path rig_path = out.parent_path() / "tall_rig.json";
+  camera.cam_from_rig.translation =
+      rig.cameras[0].cam_from_rig.translation + camera.cam_from_rig.RotationMatrix() * offset_in_rig;
+  const fs::path out = TempDir(name);
+  const fs::path rig_path = out.parent_path() / (name + "_rig.json");
   WriteRig(rig_path, rig);
   SynthOptions options;
   options.rig_path = rig_path;
   options.scene = "indoor";
-  options.frames = 2;
+  options.frames = frames;
+  options.frame_rate_hz = 1.0;
   options.image_scale = 0.05;
   try {
     Synthesize(options, out);
     ADD_FAILURE() << "no error";
   } catch (const UsageError& e) {
-    EXPECT_NE(std::string(e.what()).find("more than its 2.80 m ceiling leaves"), std::string::npos)
-        << e.what();
+    for (const std::string& message : messages) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
   }
   EXPECT_FALSE(fs::exists(out));
+}
+
+// A rig taller than the room leaves cannot be fitted: a usage error, and
+// nothing is written. Camera 1's centre 3 m above camera 0's.
+TEST(Synthesize, ARigTallerThanTheRoomIsRefused) {
+  ExpectStereoVariantRefusedIndoors("tall", Eigen::Vector3d(0, 0, 3.0), 2,
+                                    {"more than its 2.80 m ceiling leaves"});
 }
 
 // Whether a point is inside the indoor scene's rooms: the ceiling, and
@@ -301,34 +313,14 @@ TEST(Synthesize, IndoorRigsAreCarriedByTheMiddleOfTheirCameras) {
   }
 }
 
-// A rig wider than the 2.4 m corridors (its cameras 5 m apart, side by
-// side: camera x is rig y) is refused before anything is rendered: the
-// camera is named, nothing is written.
-TEST(Synthesize, ARigWiderThanTheCorridorsIsRefused) {
-  Rig rig = PresetRig("stereo");
-  Camera& camera = rig.cameras[1];
-  camera.cam_from_rig.translation = rig.cameras[0].cam_from_rig.translation +
-                                    camera.cam_from_rig.RotationMatrix() * Eigen::Vector3d(5.0, 0, 0);
-  const fs::path out = TempDir("wide");
-  const fs::path rig_path = out.parent_path() / "wide_rig.json";
-  WriteRig(rig_path, rig);
-  SynthOptions options;
-  options.rig_path = rig_path;
-  options.scene = "indoor";
-  options.frames = 0;
-  options.frame_rate_hz = 1.0;
-  options.image_scale = 0.05;
-  try {
-    Synthesize(options, out);
-    ADD_FAILURE() << "no error";
-  } catch (const UsageError& e) {
-    // Both cameras are 2.5 m from the middle; the first one found is named.
-    EXPECT_NE(std::string(e.what()).find("camera image_0"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("would be behind (or within 0.05 m of) a wall of scene 'indoor'"),
-              std::string::npos)
-        << e.what();
-  }
-  EXPECT_FALSE(fs::exists(out));
+// A rig longer than the 2.4 m corridors leave at their corners (camera 1
+// 5 m behind camera 0) is refused before anything is rendered, on the
+// whole route: the camera is named (both are 2.5 m from the middle; the
+// first one found), nothing is written.
+TEST(Synthesize, ARigLongerThanTheCorridorsAllowIsRefused) {
+  ExpectStereoVariantRefusedIndoors(
+      "wide", Eigen::Vector3d(5.0, 0, 0), 0,
+      {"camera image_0", "would be behind (or within 0.05 m of) a wall of scene 'indoor'"});
 }
 
 TEST(Synthesize, EveryPresetRigLoads) {
