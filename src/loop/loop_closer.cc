@@ -11,6 +11,7 @@
 #include <opencv2/features2d.hpp>
 
 #include "mcvo/backend/rig_pnp.h"
+#include "mcvo/loop/descriptor_match.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/option_checks.h"
 #include "mcvo/util/parallel.h"
@@ -173,10 +174,10 @@ struct LoopCloser::Impl {
     return out;
   }
 
-  Features Extract(const LoopKeyframe& keyframe) const {
+  Features Extract(const LoopKeyframe& keyframe, int camera_threads) const {
     const int n = rig.NumCameras();
     std::vector<CameraFeatures> per_camera(static_cast<size_t>(n));
-    ParallelFor(n, threads, [&](int c) { per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe); });
+    ParallelFor(n, camera_threads, [&](int c) { per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe); });
     Features f;
     f.camera_has_features.assign(static_cast<size_t>(n), false);
     std::vector<cv::Mat> detection_rows, point_rows;
@@ -290,11 +291,10 @@ struct LoopCloser::Impl {
     if (rows.size() >= 2 && query.descriptors.rows > 0) {
       cv::Mat train;
       cv::vconcat(rows, train);
-      cv::BFMatcher matcher(cv::NORM_HAMMING);
-      std::vector<std::vector<cv::DMatch>> knn;
       // The ratio test compares with the nearest row of another landmark
       // (a landmark has landmark_levels rows).
-      matcher.knnMatch(query.descriptors, train, knn, options.landmark_levels + 1);
+      const std::vector<std::vector<cv::DMatch>> knn =
+          HammingKnnMatch(query.descriptors, train, options.landmark_levels + 1, threads);
       for (const std::vector<cv::DMatch>& m : knn) {
         if (m.size() < 2) continue;
         const int q = m[0].queryIdx;
@@ -397,15 +397,73 @@ struct LoopCloser::Impl {
     return false;
   }
 
-  std::vector<LoopAttempt> AddKeyframe(const LoopKeyframe& keyframe) {
+  // A keyframe's features and its bag of words (pure: any thread).
+  struct Prepared {
+    Features features;
+    BowVector bow;
+  };
+
+  Prepared Prepare(const LoopKeyframe& keyframe, int camera_threads) const {
     CheckImages(keyframe);
+    Prepared p;
+    p.features = Extract(keyframe, camera_threads);
+    p.bow = vocabulary.Transform(DetectionDescriptors(p.features));
+    return p;
+  }
+
+  std::vector<LoopAttempt> AddKeyframe(const LoopKeyframe& keyframe) {
+    const auto start = std::chrono::steady_clock::now();
+    const Prepared prepared = Prepare(keyframe, threads);
+    timing.features_s += Seconds(start);
+    return AddPrepared(keyframe, prepared.features, prepared.bow);
+  }
+
+  // Batches of keyframes: their inputs and features in parallel (one
+  // keyframe per thread), then each added in order. A batch holds its
+  // keyframes' images only until their features are extracted.
+  std::vector<LoopAttempt> AddKeyframes(int count, const std::function<LoopKeyframe(int)>& keyframe_at) {
+    std::vector<LoopAttempt> all;
+    const int batch = 8 * threads;
+    for (int begin = 0; begin < count; begin += batch) {
+      const int n = std::min(batch, count - begin);
+      std::vector<LoopKeyframe> keyframes(static_cast<size_t>(n));
+      std::vector<Prepared> prepared(static_cast<size_t>(n));
+      std::vector<double> input_s(static_cast<size_t>(n), 0.0), prepare_s(static_cast<size_t>(n), 0.0);
+      const auto start = std::chrono::steady_clock::now();
+      ParallelFor(n, threads, [&](int i) {
+        auto step = std::chrono::steady_clock::now();
+        LoopKeyframe& keyframe = keyframes[static_cast<size_t>(i)];
+        keyframe = keyframe_at(begin + i);
+        input_s[static_cast<size_t>(i)] = Seconds(step);
+        step = std::chrono::steady_clock::now();
+        prepared[static_cast<size_t>(i)] = Prepare(keyframe, 1);
+        prepare_s[static_cast<size_t>(i)] = Seconds(step);
+        keyframe.images.clear();
+      });
+      // The batch's wall time, split between input and features in the
+      // proportion of their thread time.
+      const double wall = Seconds(start);
+      double input_sum = 0.0, prepare_sum = 0.0;
+      for (int i = 0; i < n; ++i) {
+        input_sum += input_s[static_cast<size_t>(i)];
+        prepare_sum += prepare_s[static_cast<size_t>(i)];
+      }
+      const double input_share = input_sum + prepare_sum > 0.0 ? input_sum / (input_sum + prepare_sum) : 0.0;
+      timing.input_s += wall * input_share;
+      timing.features_s += wall * (1.0 - input_share);
+      for (int i = 0; i < n; ++i) {
+        const Prepared& p = prepared[static_cast<size_t>(i)];
+        std::vector<LoopAttempt> attempts = AddPrepared(keyframes[static_cast<size_t>(i)], p.features, p.bow);
+        for (LoopAttempt& a : attempts) all.push_back(std::move(a));
+      }
+    }
+    return all;
+  }
+
+  std::vector<LoopAttempt> AddPrepared(const LoopKeyframe& keyframe, const Features& features,
+                                       const BowVector& bow) {
     const int index = static_cast<int>(entries.size());
     auto start = std::chrono::steady_clock::now();
-    const Features features = Extract(keyframe);
-    const BowVector bow = vocabulary.Transform(DetectionDescriptors(features));
-    timing.features_s += Seconds(start);
-
-    start = std::chrono::steady_clock::now();
     std::vector<std::pair<int, double>> candidates = Query(bow, index);
     // DBoW2's normalisation: the score over the query's score with the
     // previous keyframe (a place seen again should look about as similar as
@@ -483,7 +541,7 @@ struct LoopCloser::Impl {
   void AddMapKeyframe(const LoopKeyframe& keyframe) {
     CheckImages(keyframe);
     const auto start = std::chrono::steady_clock::now();
-    const Features features = Extract(keyframe);
+    const Features features = Extract(keyframe, threads);
     const BowVector bow = vocabulary.Transform(DetectionDescriptors(features));
     timing.features_s += Seconds(start);
     Insert(keyframe, features, bow);
@@ -493,7 +551,7 @@ struct LoopCloser::Impl {
   std::vector<LoopAttempt> Relocalise(const LoopKeyframe& keyframe, int max_candidates) {
     CheckImages(keyframe);
     auto start = std::chrono::steady_clock::now();
-    const Features features = Extract(keyframe);
+    const Features features = Extract(keyframe, threads);
     const BowVector bow = vocabulary.Transform(DetectionDescriptors(features));
     timing.features_s += Seconds(start);
     start = std::chrono::steady_clock::now();
@@ -533,6 +591,11 @@ LoopCloser::~LoopCloser() = default;
 
 std::vector<LoopAttempt> LoopCloser::AddKeyframe(const LoopKeyframe& keyframe) {
   return impl_->AddKeyframe(keyframe);
+}
+
+std::vector<LoopAttempt> LoopCloser::AddKeyframes(int count,
+                                                  const std::function<LoopKeyframe(int)>& keyframe_at) {
+  return impl_->AddKeyframes(count, keyframe_at);
 }
 
 void LoopCloser::AddMapKeyframe(const LoopKeyframe& keyframe) { impl_->AddMapKeyframe(keyframe); }

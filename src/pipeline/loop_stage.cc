@@ -23,15 +23,16 @@ LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEsti
   LoopOutcome out;
   const Rig& rig = index.rig;
   LoopCloser closer(rig, index.masks, vocabulary, options.closure, threads);
-  for (const KeyframeEstimate& kf : keyframes) {
-    const LoopKeyframe lk = ToLoopKeyframe(index, kf, threads, &out.image_seconds);
-    for (LoopAttempt& attempt : closer.AddKeyframe(lk)) {
-      out.verified += attempt.verified ? 1 : 0;
-      out.accepted += attempt.accepted ? 1 : 0;
-      out.attempts.push_back(std::move(attempt));
-    }
+  // Each keyframe's images are read on the thread that extracts its features.
+  out.attempts = closer.AddKeyframes(static_cast<int>(keyframes.size()), [&](int k) {
+    return ToLoopKeyframe(index, keyframes[static_cast<size_t>(k)], 1);
+  });
+  for (const LoopAttempt& attempt : out.attempts) {
+    out.verified += attempt.verified ? 1 : 0;
+    out.accepted += attempt.accepted ? 1 : 0;
   }
   out.timing = closer.timing();
+  out.image_seconds = out.timing.input_s;
   for (const KeyframeEstimate& kf : keyframes) out.keyframe_after.push_back(kf.world_from_rig);
   if (out.accepted == 0) return out;
 

@@ -35,11 +35,15 @@
 // The loop edge is candidate_from_query: the query rig pose in the
 // candidate's (drifted) map over the candidate's pose.
 //
-// Deterministic: features per camera are extracted in parallel into fixed
-// slots; everything else is sequential in keyframe order.
+// Deterministic: features per camera (AddKeyframe) or per keyframe
+// (AddKeyframes) are extracted in parallel into fixed slots, descriptor
+// matching splits the query's rows over threads (each row is matched on its
+// own); everything else is sequential in keyframe order. The results do not
+// depend on the thread count.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -135,6 +139,7 @@ struct LoopAttempt {
 };
 
 struct LoopTiming {
+  double input_s = 0.0;         // AddKeyframes: in the caller's keyframe_at (reading the images)
   double features_s = 0.0;      // ORB + BoW
   double query_s = 0.0;         // database
   double verification_s = 0.0;  // matching + rig PnP
@@ -153,6 +158,14 @@ class LoopCloser {
   // Adds the next keyframe (in time order); returns the candidates it
   // verified (accepted or not), best score first. Timing adds up in timing().
   std::vector<LoopAttempt> AddKeyframe(const LoopKeyframe& keyframe);
+  // AddKeyframe on keyframe_at(0), ..., keyframe_at(count - 1) in that
+  // order, with the same results; the attempts of all of them in order.
+  // Faster on several threads: keyframe_at (which reads the images) and the
+  // feature extraction run for a batch of keyframes at a time, one keyframe
+  // per thread, and only the query and verification stay in keyframe order.
+  // keyframe_at is called from several threads at once; an exception it
+  // throws reaches the caller (ParallelFor's rule: the lowest index's).
+  std::vector<LoopAttempt> AddKeyframes(int count, const std::function<LoopKeyframe(int)>& keyframe_at);
 
   // Relocalisation against a map (pipeline/relocalise_segments.h): adds a
   // keyframe to the database without querying it.
