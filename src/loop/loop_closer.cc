@@ -177,7 +177,8 @@ struct LoopCloser::Impl {
   Features Extract(const LoopKeyframe& keyframe, int camera_threads) const {
     const int n = rig.NumCameras();
     std::vector<CameraFeatures> per_camera(static_cast<size_t>(n));
-    ParallelFor(n, camera_threads, [&](int c) { per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe); });
+    ParallelFor(n, camera_threads,
+                [&](int c) { per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe); });
     Features f;
     f.camera_has_features.assign(static_cast<size_t>(n), false);
     std::vector<cv::Mat> detection_rows, point_rows;

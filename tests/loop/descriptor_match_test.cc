@@ -63,7 +63,8 @@ TEST(DescriptorMatchTest, SameNeighboursAsOpenCvBruteForceMatcher) {
 TEST(DescriptorMatchTest, EmptyInputsGiveNoMatches) {
   const cv::Mat train = RandomDescriptors(10, 8, 3);
   EXPECT_TRUE(HammingKnnMatch(cv::Mat(), train, 2, 2).empty());
-  const std::vector<std::vector<cv::DMatch>> none = HammingKnnMatch(RandomDescriptors(5, 8, 4), cv::Mat(), 2, 2);
+  const std::vector<std::vector<cv::DMatch>> none =
+      HammingKnnMatch(RandomDescriptors(5, 8, 4), cv::Mat(), 2, 2);
   ASSERT_EQ(none.size(), 5u);
   for (const auto& row : none) EXPECT_TRUE(row.empty());
 }
