@@ -32,7 +32,6 @@ LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEsti
     out.accepted += attempt.accepted ? 1 : 0;
   }
   out.timing = closer.timing();
-  out.image_seconds = out.timing.input_s;
   for (const KeyframeEstimate& kf : keyframes) out.keyframe_after.push_back(kf.world_from_rig);
   if (out.accepted == 0) return out;
 

@@ -30,7 +30,6 @@ struct LoopOutcome {
   std::vector<Rigid3d> keyframe_after;  // per keyframe (== before when not applied)
   PoseGraphResult graph;
   LoopTiming timing;
-  double image_seconds = 0.0;
   double pose_graph_seconds = 0.0;
 };
 

@@ -1,7 +1,6 @@
 #include "relocalise_segments.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <iterator>
 #include <map>
@@ -219,14 +218,12 @@ Located LocateByTracking(const DatasetIndex& index, const LoopClosureOptions& cl
 
 }  // namespace
 
-LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& kf, int threads,
-                            double* image_seconds) {
+LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& kf, int threads) {
   const Rig& rig = index.rig;
   LoopKeyframe lk;
   lk.frame_index = kf.frame_index;
   lk.t_ns = kf.t_ns;
   lk.world_from_rig = kf.world_from_rig;
-  const auto start = std::chrono::steady_clock::now();
   lk.images.resize(static_cast<size_t>(rig.NumCameras()));
   if (kf.frame_index >= 0 && kf.frame_index < static_cast<int>(index.frames.size())) {
     const std::vector<std::filesystem::path>& paths =
@@ -240,9 +237,6 @@ LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& k
         MCVO_THROW_INPUT(paths[c].string(), ": cannot read the image (loop closure)");
       }
     }
-  }
-  if (image_seconds != nullptr) {
-    *image_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
   for (size_t k = 0; k < kf.observations.size() && k < kf.observation_points.size(); ++k) {
     const MapObservation& ob = kf.observations[k];

@@ -36,9 +36,7 @@ namespace mcvo::pipeline_internal {
 // A keyframe for the loop closer: its images decoded (in parallel over
 // cameras, each into its own slot) and its landmark observations with their
 // world points. Throws InputError naming an image that cannot be read.
-// *image_seconds (if given) gets the decoding time added.
-LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& keyframe, int threads,
-                            double* image_seconds = nullptr);
+LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& keyframe, int threads);
 
 struct RelocalisationSummary {
   int attempted = 0;  // segments after the first with keyframes on both sides

@@ -411,7 +411,7 @@ Json TimingJson(const RunOutputsInput& in, const RunSummary& summary, double col
   if (in.loops != nullptr) {
     const LoopOutcome& loops = *in.loops;
     const double keyframe_count = std::max<size_t>(1, odometry.keyframes.size());
-    timing["loop_image_read_s_per_keyframe"] = loops.image_seconds / keyframe_count;
+    timing["loop_image_read_s_per_keyframe"] = loops.timing.input_s / keyframe_count;
     timing["loop_features_s_per_keyframe"] = loops.timing.features_s / keyframe_count;
     timing["loop_query_s_per_keyframe"] = loops.timing.query_s / keyframe_count;
     timing["loop_verification_s_per_keyframe"] = loops.timing.verification_s / keyframe_count;
