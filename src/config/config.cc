@@ -212,6 +212,7 @@ void Visit(V& v, LoopOptions* o) {
   v.Field("relocalise_query_keyframes", &o->relocalise_query_keyframes);
   LoopClosureOptions& c = o->closure;
   v.Field("features_per_camera", &c.features_per_camera);
+  v.Field("feature_max_megapixels", &c.feature_max_megapixels);
   v.Field("exclude_recent_keyframes", &c.exclude_recent_keyframes);
   v.Field("min_score", &c.min_score);
   v.Field("min_normalized_score", &c.min_normalized_score);

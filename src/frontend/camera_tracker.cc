@@ -42,11 +42,12 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "classic_detectors.h"
-#include "texture_gate.h"
+#include "mcvo/dataset/image_level.h"
 #include "mcvo/frontend/bearing_ransac.h"
 #include "mcvo/frontend/patch_aligner.h"
 #include "mcvo/frontend/selection.h"
 #include "mcvo/util/error.h"
+#include "texture_gate.h"
 
 namespace mcvo {
 namespace {
@@ -68,30 +69,6 @@ cv::Mat SelectRows(const cv::Mat& rows, const std::vector<int>& keep) {
   cv::Mat out(static_cast<int>(keep.size()), rows.cols, rows.type());
   for (size_t i = 0; i < keep.size(); ++i) rows.row(keep[i]).copyTo(out.row(static_cast<int>(i)));
   return out;
-}
-
-// The mask at pyramid level `levels` (each halving both sides, rounding
-// up as pyrDown does): a coarse pixel is usable when all the fine pixels it
-// covers are.
-cv::Mat CoarseMask(const cv::Mat& mask, int levels) {
-  cv::Mat fine = mask;
-  for (int level = 0; level < levels; ++level) {
-    cv::Mat coarse(cv::Size((fine.cols + 1) / 2, (fine.rows + 1) / 2), CV_8UC1);
-    for (int y = 0; y < coarse.rows; ++y) {
-      for (int x = 0; x < coarse.cols; ++x) {
-        bool usable = true;
-        for (int dy = 0; dy < 2; ++dy) {
-          for (int dx = 0; dx < 2; ++dx) {
-            const int fy = std::min(2 * y + dy, fine.rows - 1), fx = std::min(2 * x + dx, fine.cols - 1);
-            usable = usable && fine.at<uint8_t>(fy, fx) != 0;
-          }
-        }
-        coarse.at<uint8_t>(y, x) = usable ? 255 : 0;
-      }
-    }
-    fine = coarse;
-  }
-  return fine;
 }
 
 }  // namespace
@@ -188,13 +165,9 @@ CameraTracker::CameraTracker(const Camera& camera, const cv::Mat& mask, const Fr
   impl_->max_features = IsFisheye(camera.model) ? options.max_features_fisheye : options.max_features_pinhole;
   impl_->border_px =
       options.detector == DetectorType::kSuperPoint ? std::max(1, options.superpoint.border_px) : 1;
-  if (options.detector == DetectorType::kShiTomasi && options.detection_max_megapixels > 0.0) {
-    const double max_pixels = options.detection_max_megapixels * 1e6;
-    double pixels = static_cast<double>(camera.width) * camera.height;
-    while (pixels > max_pixels && impl_->detection_level < options.lk.pyramid_levels) {
-      ++impl_->detection_level;
-      pixels /= 4.0;
-    }
+  if (options.detector == DetectorType::kShiTomasi) {
+    impl_->detection_level = LevelForMegapixels(camera.width, camera.height, options.detection_max_megapixels,
+                                                options.lk.pyramid_levels);
   }
   if (impl_->detection_level > 0 && !impl_->mask.empty()) {
     impl_->detection_mask = CoarseMask(impl_->mask, impl_->detection_level);
@@ -481,7 +454,8 @@ Detections CameraTracker::Impl::Detect(const cv::Mat& image, const std::vector<c
 }
 
 void CameraTracker::Impl::AddNewFeatures(const cv::Mat& input, const cv::Mat& image,
-                                         const std::vector<cv::Mat>& pyramid, CameraFrameResult* result) const {
+                                         const std::vector<cv::Mat>& pyramid,
+                                         CameraFrameResult* result) const {
   const int wanted = max_features - result->stats.tracked;
   if (wanted <= 0) return;
   auto start = Clock::now();

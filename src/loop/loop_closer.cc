@@ -9,8 +9,10 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "mcvo/backend/rig_pnp.h"
+#include "mcvo/dataset/image_level.h"
 #include "mcvo/loop/descriptor_match.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/option_checks.h"
@@ -48,6 +50,9 @@ float IntensityCentroidAngle(const cv::Mat& image, float x, float y, int radius)
   return static_cast<float>(angle);
 }
 
+// Coarsest level feature_max_megapixels may pick (1/16 of each side).
+constexpr int kMaxFeatureLevel = 4;
+
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
@@ -57,6 +62,7 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 void LoopClosureOptions::Check() const {
   CheckAtLeast("/loop/features_per_camera", features_per_camera, 1);
   CheckAtLeast("/loop/exclude_recent_keyframes", exclude_recent_keyframes, 0);
+  CheckAtLeast("/loop/feature_max_megapixels", feature_max_megapixels, 0.0);
   CheckInRange("/loop/min_score", min_score, 0.0, 1.0);
   CheckAtLeast("/loop/min_normalized_score", min_normalized_score, 0.0);
   CheckAtLeast("/loop/max_candidates", max_candidates, 1);
@@ -101,23 +107,27 @@ struct LoopCloser::Impl {
 
   Impl(const Rig& rig_in, std::vector<cv::Mat> masks_in, Vocabulary vocabulary_in,
        const LoopClosureOptions& o, int threads_in)
-      : rig(rig_in),
-        masks(std::move(masks_in)),
-        vocabulary(std::move(vocabulary_in)),
-        options(o),
-        threads(std::max(1, threads_in)) {
+      : rig(rig_in), vocabulary(std::move(vocabulary_in)), options(o), threads(std::max(1, threads_in)) {
     options.Check();
     if (vocabulary.kind() != DescriptorKind::kBinary || vocabulary.descriptor_size() != 32) {
       MCVO_THROW_INPUT("loop closure needs a vocabulary of 32-byte binary (ORB) descriptors, got ",
                        vocabulary.kind() == DescriptorKind::kBinary ? "binary" : "float", " of size ",
                        vocabulary.descriptor_size());
     }
-    masks.resize(static_cast<size_t>(rig.NumCameras()));
+    // The masks on the level each camera's features are extracted on.
+    masks_in.resize(static_cast<size_t>(rig.NumCameras()));
+    for (size_t c = 0; c < masks_in.size(); ++c) {
+      const Camera& camera = rig.cameras[c];
+      const int level =
+          LevelForMegapixels(camera.width, camera.height, options.feature_max_megapixels, kMaxFeatureLevel);
+      feature_masks.push_back(level > 0 && !masks_in[c].empty() ? CoarseMask(masks_in[c], level)
+                                                                : masks_in[c]);
+    }
     cam_from_rig = rig.CamFromRig();
   }
 
   const Rig rig;
-  std::vector<cv::Mat> masks;
+  std::vector<cv::Mat> feature_masks;  // per camera, on the level its features are extracted on
   const Vocabulary vocabulary;
   const LoopClosureOptions options;
   const int threads;
@@ -140,12 +150,25 @@ struct LoopCloser::Impl {
 
   CameraFeatures ExtractCamera(int camera, const LoopKeyframe& keyframe) const {
     CameraFeatures out;
-    const cv::Mat& image = keyframe.images[static_cast<size_t>(camera)];
-    if (image.empty()) return out;
+    const cv::Mat& full = keyframe.images[static_cast<size_t>(camera)];
+    if (full.empty()) return out;
+    // A large image is described on a coarser level (feature_max_megapixels);
+    // pyrDown's coarse pixel x is the fine pixel 2x (its Gaussian is centred
+    // there), so full-resolution pixels are 2^level times the coarse ones.
+    const int image_level =
+        LevelForMegapixels(full.cols, full.rows, options.feature_max_megapixels, kMaxFeatureLevel);
+    cv::Mat image = full;
+    for (int l = 0; l < image_level; ++l) {
+      cv::Mat coarser;
+      cv::pyrDown(image, coarser);
+      image = coarser;
+    }
+    const float factor = static_cast<float>(1 << image_level);
     cv::Ptr<cv::ORB> orb = cv::ORB::create(options.features_per_camera);
-    const cv::Mat& mask = masks[static_cast<size_t>(camera)];
+    const cv::Mat& mask = feature_masks[static_cast<size_t>(camera)];
     orb->detectAndCompute(image, mask.empty() || mask.size() != image.size() ? cv::noArray() : mask,
                           out.detections, out.detection_descriptors);
+    for (cv::KeyPoint& kp : out.detections) kp.pt *= factor;
     std::vector<cv::KeyPoint> points;
     for (size_t k = 0; k < keyframe.points.size(); ++k) {
       const LoopKeyframe::Point& p = keyframe.points[k];
@@ -153,7 +176,7 @@ struct LoopCloser::Impl {
       // One descriptor per pyramid level asked for (ORB's levels, 1.2 apart):
       // a place seen again from farther or nearer matches at another level.
       for (int level = 0; level < options.landmark_levels; ++level) {
-        cv::KeyPoint kp(static_cast<float>(p.pixel.x()), static_cast<float>(p.pixel.y()),
+        cv::KeyPoint kp(static_cast<float>(p.pixel.x()) / factor, static_cast<float>(p.pixel.y()) / factor,
                         static_cast<float>(31.0 * std::pow(1.2, level)));
         kp.octave = level;
         kp.class_id = static_cast<int>(k);

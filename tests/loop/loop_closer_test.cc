@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,7 @@
 
 #include "mcvo/camera/camera.h"
 #include "mcvo/loop/vocabulary.h"
+#include "mcvo/util/error.h"
 
 namespace mcvo {
 namespace {
@@ -23,15 +25,16 @@ namespace {
 constexpr int kWidth = 320;
 constexpr int kHeight = 240;
 
-Rig TwoCameraRig() {
+// upscale: images (and intrinsics) this many times larger.
+Rig TwoCameraRig(int upscale = 1) {
   Rig rig;
   for (int c = 0; c < 2; ++c) {
     Camera camera;
     camera.name = "cam" + std::to_string(c);
     camera.model = CameraModelId::kPinhole;
-    camera.params = {250.0, 250.0, kWidth / 2.0, kHeight / 2.0};
-    camera.width = kWidth;
-    camera.height = kHeight;
+    camera.params = {250.0 * upscale, 250.0 * upscale, kWidth * upscale / 2.0, kHeight * upscale / 2.0};
+    camera.width = kWidth * upscale;
+    camera.height = kHeight * upscale;
     camera.cam_from_rig = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-0.5 * c, 0.0, 0.0));
     rig.cameras.push_back(camera);
   }
@@ -69,7 +72,8 @@ TEST(LoopCloserTest, BlankKeyframesAreTakenWithoutAnError) {
     ASSERT_NO_THROW(attempts = closer.AddKeyframe(Keyframe(k, blank)));
     EXPECT_TRUE(attempts.empty());
   }
-  for (int k = 3; k < 6; ++k) ASSERT_NO_THROW(closer.AddKeyframe(Keyframe(k, Textured(static_cast<uint64_t>(k)))));
+  for (int k = 3; k < 6; ++k)
+    ASSERT_NO_THROW(closer.AddKeyframe(Keyframe(k, Textured(static_cast<uint64_t>(k)))));
   EXPECT_EQ(closer.num_keyframes(), 6);
 
   // Relocalisation: a blank map keyframe, then a blank query.
@@ -86,10 +90,18 @@ TEST(LoopCloserTest, BlankKeyframesAreTakenWithoutAnError) {
 // pose, with landmarks at FAST corners of the image, 10 m along their rays.
 constexpr int kPlaces = 10;
 
-LoopKeyframe RouteKeyframe(const Rig& rig, int k) {
+// upscale: the images enlarged this many times (rig: TwoCameraRig(upscale)).
+LoopKeyframe RouteKeyframe(const Rig& rig, int k, int upscale = 1) {
   const int place = k % kPlaces;
   LoopKeyframe keyframe = Keyframe(k, Textured(static_cast<uint64_t>(2 * place)));
   keyframe.images[1] = Textured(static_cast<uint64_t>(2 * place + 1));
+  if (upscale > 1) {
+    for (cv::Mat& image : keyframe.images) {
+      cv::Mat large;
+      cv::resize(image, large, cv::Size(), upscale, upscale, cv::INTER_LINEAR);
+      image = large;
+    }
+  }
   keyframe.world_from_rig =
       Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.3 * place, Eigen::Vector3d::UnitZ())),
               Eigen::Vector3d(2.0 * place, 0.5 * place, 0.0));
@@ -162,6 +174,64 @@ TEST(LoopCloserTest, AddKeyframesMatchesAddKeyframeOneByOne) {
     ExpectSameAttempts(expected, got);
     EXPECT_EQ(batched.num_keyframes(), kKeyframes);
   }
+}
+
+// loop.feature_max_megapixels: images over the bound are described on a
+// coarser level, and the features keep full-resolution pixels (the
+// verification's bearings and inlier pixels); images within it are
+// described exactly as with no bound.
+TEST(LoopCloserTest, LargeImagesAreDescribedOnACoarserLevel) {
+  const Vocabulary vocabulary = Vocabulary::Load(MCVO_SOURCE_DIR "/config/vocabulary_orb.bin");
+  LoopClosureOptions options;
+  options.exclude_recent_keyframes = 5;
+  options.min_inliers = 20;
+  // Oriented landmark descriptors, like the detections': the query's ORB
+  // detections then match the candidate's landmarks (upright ones match
+  // mostly the query's own landmark pixels, which are full-resolution anyway).
+  options.landmark_orientation = true;
+  constexpr int kKeyframes = 2 * kPlaces + 5;
+
+  // 640 x 480 (0.31 Mpx) over a bound of 0.1 Mpx: described at 320 x 240.
+  const Rig large = TwoCameraRig(2);
+  options.feature_max_megapixels = 0.1;
+  LoopCloser coarse(large, {}, vocabulary, options, 2);
+  const std::vector<LoopAttempt> attempts =
+      coarse.AddKeyframes(kKeyframes, [&](int k) { return RouteKeyframe(large, k, 2); });
+  int accepted = 0;
+  int detection_inliers = 0;
+  double largest_x = 0.0, largest_y = 0.0;
+  for (const LoopAttempt& a : attempts) {
+    if (!a.accepted) continue;
+    ++accepted;
+    EXPECT_EQ(a.query % kPlaces, a.candidate % kPlaces) << a.query << " " << a.candidate;
+    // The same place from the same pose: the loop's relative pose is the identity.
+    EXPECT_LT(a.candidate_from_query.translation.norm(), 0.05) << a.query << " " << a.candidate;
+    for (const LoopAttempt::Match& m : a.inlier_matches) {
+      if (m.query_landmark_id >= 0) continue;  // a landmark pixel: given at full resolution
+      ++detection_inliers;
+      largest_x = std::max(largest_x, m.pixel.x());
+      largest_y = std::max(largest_y, m.pixel.y());
+    }
+  }
+  EXPECT_GT(accepted, kPlaces / 2);
+  // ORB detections are inliers at full-resolution pixels, not the coarse level's.
+  EXPECT_GT(detection_inliers, 2 * accepted);
+  EXPECT_GT(largest_x, 1.5 * kWidth);
+  EXPECT_GT(largest_y, 1.5 * kHeight);
+
+  // Within the bound (320 x 240 under 1 Mpx): the same attempts as with none.
+  const Rig small = TwoCameraRig();
+  options.feature_max_megapixels = 0.0;
+  LoopCloser full(small, {}, vocabulary, options, 2);
+  const std::vector<LoopAttempt> expected =
+      full.AddKeyframes(kKeyframes, [&](int k) { return RouteKeyframe(small, k); });
+  options.feature_max_megapixels = 1.0;
+  LoopCloser bounded(small, {}, vocabulary, options, 2);
+  ExpectSameAttempts(expected,
+                     bounded.AddKeyframes(kKeyframes, [&](int k) { return RouteKeyframe(small, k); }));
+
+  options.feature_max_megapixels = -1.0;
+  EXPECT_THROW(LoopCloser(small, {}, vocabulary, options, 1), InputError);
 }
 
 }  // namespace

@@ -6,7 +6,9 @@
 //  1. Features: ORB (FAST + rBRIEF, `features_per_camera`, inside the
 //     camera's mask) in every camera image, and ORB descriptors at the
 //     pixels of the keyframe's landmark observations (the back end's tracked
-//     features), which carry the landmarks' world positions.
+//     features), which carry the landmarks' world positions. An image of
+//     more than `feature_max_megapixels` is described on the first pyramid
+//     level within it (dataset/image_level.h); pixels stay full-resolution.
 //  2. Bag of words of the features of all cameras together (one database
 //     entry per keyframe), so a place is found again whichever camera sees
 //     it (a street driven the other way: the left fisheye now sees what the
@@ -60,6 +62,11 @@ namespace mcvo {
 
 struct LoopClosureOptions {
   int features_per_camera = 500;
+  // A camera image of more megapixels than this is described (ORB detections
+  // and landmark descriptors) on the first pyramid level that is not larger
+  // (cv::pyrDown, halving each side); 0: always at full resolution. The
+  // default leaves the images of at most 1 Mpx as they are.
+  double feature_max_megapixels = 1.0;
   int exclude_recent_keyframes = 50;
   double min_score = 0.015;
   // Score over the query's score with the previous keyframe (DBoW2's
