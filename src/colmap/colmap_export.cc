@@ -38,6 +38,7 @@ namespace fs = std::filesystem;
 struct PendingImage {
   uint32_t id = 0;
   int keyframe = 0;
+  int frame_index = 0;  // the keyframe's
   int camera = 0;
   std::string name;
   fs::path source;  // the dataset's file, empty when the keyframe lists none
@@ -151,57 +152,6 @@ bool ReplaceBlanks(std::string* name) {
   return replaced;
 }
 
-// Bilinear sample (OpenCV pixel convention) of an 8-bit BGR image as RGB;
-// false when a neighbour is outside the image (as COLMAP's color_extractor).
-bool SampleBilinear(const cv::Mat& bgr, const Eigen::Vector2d& pixel, Eigen::Vector3d* rgb) {
-  const double fx = std::floor(pixel.x());
-  const double fy = std::floor(pixel.y());
-  const int x0 = static_cast<int>(fx);
-  const int y0 = static_cast<int>(fy);
-  if (!(fx >= 0.0 && fy >= 0.0) || x0 + 1 >= bgr.cols || y0 + 1 >= bgr.rows) return false;
-  const double ax = pixel.x() - fx;
-  const double ay = pixel.y() - fy;
-  const cv::Vec3b& p00 = bgr.at<cv::Vec3b>(y0, x0);
-  const cv::Vec3b& p01 = bgr.at<cv::Vec3b>(y0, x0 + 1);
-  const cv::Vec3b& p10 = bgr.at<cv::Vec3b>(y0 + 1, x0);
-  const cv::Vec3b& p11 = bgr.at<cv::Vec3b>(y0 + 1, x0 + 1);
-  for (int c = 0; c < 3; ++c) {
-    const double top = (1.0 - ax) * p00[c] + ax * p01[c];
-    const double bottom = (1.0 - ax) * p10[c] + ax * p11[c];
-    (*rgb)[2 - c] = (1.0 - ay) * top + ay * bottom;
-  }
-  return true;
-}
-
-// Any decoded image as 8-bit BGR.
-cv::Mat ToBgr8(const cv::Mat& image) {
-  cv::Mat eight = image;
-  if (image.depth() == CV_16U) {
-    image.convertTo(eight, CV_8U, 1.0 / 257.0);
-  } else if (image.depth() != CV_8U) {
-    image.convertTo(eight, CV_8U);
-  }
-  cv::Mat bgr;
-  if (eight.channels() == 1) {
-    cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
-  } else if (eight.channels() == 4) {
-    cv::cvtColor(eight, bgr, cv::COLOR_BGRA2BGR);
-  } else {
-    bgr = eight;
-  }
-  return bgr;
-}
-
-cv::Mat Decode(const fs::path& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) return cv::Mat();
-  try {
-    return cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception&) {
-    return cv::Mat();
-  }
-}
-
 void WriteImage(const fs::path& path, const cv::Mat& image) {
   // Fixed encoder settings: the same pixels always give the same bytes.
   std::vector<int> params;
@@ -220,16 +170,40 @@ void WriteImage(const fs::path& path, const cv::Mat& image) {
 }
 
 // Links, copies or remaps one image into images/ and samples its colours.
+// The colours of every observation of `image` from `samples`; false (result
+// untouched) when a pixel is missing there.
+bool ColorsFromSamples(const PendingImage& image, const ColmapColorSamples& samples, ImageResult* result) {
+  std::vector<int> index(image.source_pixels.size());
+  for (size_t i = 0; i < index.size(); ++i) {
+    index[i] = samples.Find(image.source_pixels[i]);
+    if (index[i] < 0) return false;
+  }
+  result->read_for_color = true;
+  result->colors.assign(index.size(), Eigen::Vector3d::Zero());
+  result->has_color.assign(index.size(), false);
+  for (size_t i = 0; i < index.size(); ++i) {
+    const size_t at = static_cast<size_t>(index[i]);
+    result->has_color[i] = samples.has_color[at];
+    result->colors[i] = samples.colors[at];
+  }
+  return true;
+}
+
+// samples: colours sampled ahead (WriteColmapModel's table), or null.
 void ProcessImage(const PendingImage& image, const ColmapCameraExport& camera_export, const cv::Mat* map_x,
                   const cv::Mat* map_y, const ColmapExportOptions& options, const fs::path& image_dir,
-                  ImageResult* result) {
+                  const ColmapColorSamples* samples, ImageResult* result) {
   const std::string where = StrCat(" (image '", image.name, "', camera '", camera_export.name, "')");
   const bool write = options.image_mode != ColmapImageMode::kNone;
   std::error_code ec;
   if (write && !fs::is_regular_file(image.source, ec))
     MCVO_THROW_INPUT(image.source.string(), ": image not found", where);
+  // Decoded only to remap it, or for colours the table does not have.
+  const bool colors_given = options.sample_colors && samples != nullptr && !camera_export.undistorted &&
+                            ColorsFromSamples(image, *samples, result);
   cv::Mat decoded;
-  if (camera_export.undistorted || options.sample_colors) decoded = Decode(image.source);
+  if (camera_export.undistorted || (options.sample_colors && !colors_given))
+    decoded = DecodeColmapColorImage(image.source);
   const fs::path target = image_dir / image.name;
   if (write) {
     if (camera_export.undistorted) {
@@ -246,13 +220,13 @@ void ProcessImage(const PendingImage& image, const ColmapCameraExport& camera_ex
     }
     result->written = true;
   }
-  if (options.sample_colors && !decoded.empty()) {
+  if (options.sample_colors && !colors_given && !decoded.empty()) {
     result->read_for_color = true;
-    const cv::Mat bgr = ToBgr8(decoded);
+    const cv::Mat bgr = colmap_internal::ToBgr8(decoded);
     result->colors.assign(image.source_pixels.size(), Eigen::Vector3d::Zero());
     result->has_color.assign(image.source_pixels.size(), false);
     for (size_t i = 0; i < image.source_pixels.size(); ++i)
-      result->has_color[i] = SampleBilinear(bgr, image.source_pixels[i], &result->colors[i]);
+      result->has_color[i] = colmap_internal::SampleBilinear(bgr, image.source_pixels[i], &result->colors[i]);
   }
 }
 
@@ -366,6 +340,7 @@ std::vector<PendingImage> CollectImages(const Rig& rig, const SparseMap& map, co
       const fs::path listed = keyframe.images.empty() ? fs::path() : keyframe.images[c];
       PendingImage image;
       image.keyframe = static_cast<int>(k);
+      image.frame_index = keyframe.frame_index;
       image.camera = c;
       image.cam_from_world = Canonical(rig.cameras[c].cam_from_rig * rig_from_world);
       const Camera& camera = rig.cameras[c];
@@ -501,7 +476,7 @@ ColmapModel BuildModel(const SparseMap& map, const ColmapExportOptions& options,
 void ExportImages(const std::vector<PendingImage>& images, const std::vector<cv::Mat>& maps_x,
                   const std::vector<cv::Mat>& maps_y, const ColmapExportOptions& options,
                   const fs::path& image_dir, const std::vector<uint64_t>& point_index_of_landmark,
-                  ColmapExportReport* report, ColmapModel* model) {
+                  const ColmapColorTable* colors, ColmapExportReport* report, ColmapModel* model) {
   if (options.image_mode != ColmapImageMode::kNone) {
     for (const PendingImage& image : images) {
       if (!image.source.empty()) CreateDirectories((image_dir / image.name).parent_path());
@@ -514,9 +489,14 @@ void ExportImages(const std::vector<PendingImage>& images, const std::vector<cv:
     ParallelFor(static_cast<int>(images.size()), threads, [&](int i) {
       const PendingImage& image = images[i];
       if (image.source.empty()) return;
+      const ColmapColorSamples* samples = nullptr;
+      if (colors != nullptr) {
+        const auto it = colors->find({image.frame_index, image.camera});
+        if (it != colors->end()) samples = &it->second;
+      }
       try {
         ProcessImage(image, report->camera_exports[image.camera], &maps_x[image.camera],
-                     &maps_y[image.camera], options, image_dir, &results[i]);
+                     &maps_y[image.camera], options, image_dir, samples, &results[i]);
       } catch (...) {
         results[i].error = std::current_exception();
       }
@@ -558,7 +538,8 @@ void ColmapExportOptions::Check() const {
 }
 
 ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const fs::path& dataset_root,
-                                    const ColmapExportOptions& options, const fs::path& out_dir) {
+                                    const ColmapExportOptions& options, const fs::path& out_dir,
+                                    const ColmapColorTable* colors) {
   options.Check();
   if (rig.NumCameras() == 0) MCVO_THROW_INPUT("rig: no cameras");
   CheckMap(rig, map);
@@ -596,7 +577,7 @@ ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map, const 
   CreateDirectories(staging.path());
   const fs::path image_dir = staging.path() / "images";
 
-  ExportImages(images, maps_x, maps_y, options, image_dir, point_index_of_landmark, &report, &model);
+  ExportImages(images, maps_x, maps_y, options, image_dir, point_index_of_landmark, colors, &report, &model);
 
   // Model files.
   const fs::path model_dir = staging.path() / "sparse" / "0";

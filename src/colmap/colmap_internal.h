@@ -46,4 +46,11 @@ std::optional<Eigen::Vector2d> UndistortPixel(const Camera& camera, const Colmap
 // camera cannot see the pinhole pixel's bearing.
 void MakeUndistortMaps(const Camera& camera, const ColmapCamera& pinhole, cv::Mat* map_x, cv::Mat* map_y);
 
+// Colours (colmap_colors.cc; decoding: DecodeColmapColorImage). Any decoded
+// image as 8-bit BGR.
+cv::Mat ToBgr8(const cv::Mat& image);
+// Bilinear sample (OpenCV pixel convention) of an 8-bit BGR image as RGB;
+// false when a neighbour is outside the image (as COLMAP's color_extractor).
+bool SampleBilinear(const cv::Mat& bgr, const Eigen::Vector2d& pixel, Eigen::Vector3d* rgb);
+
 }  // namespace mcvo::colmap_internal

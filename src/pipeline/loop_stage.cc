@@ -19,14 +19,23 @@ double SecondsSince(Clock::time_point start) {
 }  // namespace
 
 LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
-                       const Vocabulary& vocabulary, const LoopOptions& options, int threads) {
+                       const Vocabulary& vocabulary, const LoopOptions& options, int threads,
+                       bool sample_colors) {
   LoopOutcome out;
   const Rig& rig = index.rig;
   LoopCloser closer(rig, index.masks, vocabulary, options.closure, threads);
-  // Each keyframe's images are read on the thread that extracts its features.
+  // Each keyframe's images are read on the thread that extracts its
+  // features, its colours sampled into its own slot.
+  std::vector<std::vector<ColmapColorSamples>> colors(sample_colors ? keyframes.size() : 0);
   out.attempts = closer.AddKeyframes(static_cast<int>(keyframes.size()), [&](int k) {
-    return ToLoopKeyframe(index, keyframes[static_cast<size_t>(k)], 1);
+    const size_t at = static_cast<size_t>(k);
+    return ToLoopKeyframe(index, keyframes[at], 1, sample_colors ? &colors[at] : nullptr);
   });
+  for (size_t k = 0; k < colors.size(); ++k) {
+    for (size_t c = 0; c < colors[k].size(); ++c) {
+      out.colors[{keyframes[k].frame_index, static_cast<int>(c)}] = std::move(colors[k][c]);
+    }
+  }
   for (const LoopAttempt& attempt : out.attempts) {
     out.verified += attempt.verified ? 1 : 0;
     out.accepted += attempt.accepted ? 1 : 0;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "mcvo/colmap/colmap_model.h"
 #include "mcvo/config/pipeline_options.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/loop/loop_closer.h"
@@ -31,10 +32,15 @@ struct LoopOutcome {
   PoseGraphResult graph;
   LoopTiming timing;
   double pose_graph_seconds = 0.0;
+  // With sample_colors: the COLMAP export's point colours at every
+  // keyframe's observation pixels, sampled while its images were read for
+  // the loop closer (the export then decodes none of them again).
+  ColmapColorTable colors;
 };
 
 LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
-                       const Vocabulary& vocabulary, const LoopOptions& options, int threads);
+                       const Vocabulary& vocabulary, const LoopOptions& options, int threads,
+                       bool sample_colors = false);
 
 // loops.csv: one line per verified or rejected candidate.
 std::string LoopsCsv(const std::vector<LoopAttempt>& attempts);

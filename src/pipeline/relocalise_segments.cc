@@ -218,19 +218,34 @@ Located LocateByTracking(const DatasetIndex& index, const LoopClosureOptions& cl
 
 }  // namespace
 
-LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& kf, int threads) {
+LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& kf, int threads,
+                            std::vector<ColmapColorSamples>* colors) {
   const Rig& rig = index.rig;
   LoopKeyframe lk;
   lk.frame_index = kf.frame_index;
   lk.t_ns = kf.t_ns;
   lk.world_from_rig = kf.world_from_rig;
   lk.images.resize(static_cast<size_t>(rig.NumCameras()));
+  if (colors != nullptr) colors->assign(static_cast<size_t>(rig.NumCameras()), ColmapColorSamples());
   if (kf.frame_index >= 0 && kf.frame_index < static_cast<int>(index.frames.size())) {
     const std::vector<std::filesystem::path>& paths =
         index.frames[static_cast<size_t>(kf.frame_index)].images;
     const int n = static_cast<int>(std::min(paths.size(), lk.images.size()));
     ParallelFor(n, std::max(1, threads), [&](int c) {
-      if (!paths[c].empty()) lk.images[c] = cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
+      if (paths[c].empty()) return;
+      if (colors == nullptr) {
+        lk.images[c] = cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
+        return;
+      }
+      // An 8-bit one-channel decode is what IMREAD_GRAYSCALE gives as well.
+      const cv::Mat decoded = DecodeColmapColorImage(paths[c]);
+      lk.images[c] =
+          decoded.type() == CV_8UC1 ? decoded : cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
+      std::vector<Eigen::Vector2d> pixels;
+      for (const MapObservation& ob : kf.observations) {
+        if (ob.camera == c) pixels.push_back(ob.pixel);
+      }
+      (*colors)[static_cast<size_t>(c)] = SampleColmapColors(decoded, std::move(pixels));
     });
     for (int c = 0; c < n; ++c) {
       if (!paths[c].empty() && lk.images[c].empty()) {

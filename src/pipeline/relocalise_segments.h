@@ -25,6 +25,7 @@
 
 #include <vector>
 
+#include "mcvo/colmap/colmap_model.h"
 #include "mcvo/config/pipeline_options.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/loop/loop_closer.h"
@@ -36,7 +37,12 @@ namespace mcvo::pipeline_internal {
 // A keyframe for the loop closer: its images decoded (in parallel over
 // cameras, each into its own slot) and its landmark observations with their
 // world points. Throws InputError naming an image that cannot be read.
-LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& keyframe, int threads);
+// colors (optional): per camera, the COLMAP export's colours at the
+// keyframe's observation pixels of that camera (colmap_model.h
+// SampleColmapColors), from the same decode where the image is 8-bit grey
+// (a colour or 16-bit image is decoded once for the colours and once grey).
+LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& keyframe, int threads,
+                            std::vector<ColmapColorSamples>* colors = nullptr);
 
 struct RelocalisationSummary {
   int attempted = 0;  // segments after the first with keyframes on both sides

@@ -259,7 +259,10 @@ RunSummary RunPipeline(const RunRequest& request) {
   pipeline_internal::LoopOutcome loops;
   pipeline_internal::OdometryBeforeLoops before_loops;
   if (vocabulary) {
-    loops = pipeline_internal::CloseLoops(posed, odometry.keyframes, *vocabulary, options.loop, threads);
+    // The COLMAP export's colours are sampled as the loop closer reads the images.
+    const bool sample_colors = options.colmap.enabled && options.colmap.export_options.sample_colors;
+    loops = pipeline_internal::CloseLoops(posed, odometry.keyframes, *vocabulary, options.loop, threads,
+                                          sample_colors);
     MCVO_LOG(kInfo, "run: loop closure: ", odometry.keyframes.size(), " keyframes, ", loops.verified,
              " candidates verified, ", loops.accepted, " loop(s) accepted",
              loops.applied ? ", pose graph applied" : "");
@@ -267,8 +270,8 @@ RunSummary RunPipeline(const RunRequest& request) {
   }
   summary.loops_accepted = loops.accepted;
   int map_observations_dropped = 0;
-  SparseMap map = pipeline_internal::BuildSparseMap(posed, odometry.keyframes, odometry.landmarks, options.backend,
-                                                    &map_observations_dropped);
+  SparseMap map = pipeline_internal::BuildSparseMap(posed, odometry.keyframes, odometry.landmarks,
+                                                    options.backend, &map_observations_dropped);
   // Global refinement: one rig bundle adjustment over the whole map.
   const pipeline_internal::RefineOutcome refine = pipeline_internal::RefineGlobally(
       posed.rig, options.refine, &loops, options.loop.pose_graph, summary.scale_arbitrary, &map, &odometry);

@@ -9,12 +9,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "mcvo/io/rig_io.h"
 #include "mcvo/colmap/colmap_model.h"
 #include "mcvo/config/config.h"
 #include "mcvo/eval/report.h"
 #include "mcvo/eval/report_html.h"
 #include "mcvo/io/json_util.h"
+#include "mcvo/io/rig_io.h"
 #include "mcvo/io/trajectory_io.h"
 #include "mcvo/pipeline/run_manifest.h"
 #include "mcvo/util/error.h"
@@ -81,9 +81,10 @@ std::string ScaleLogCsv(const Rig& rig, const std::vector<ScaleLogEntry>& scale_
 // The trajectories a run writes: the final one, and the earlier stages'
 // when a later stage changed them.
 struct StageTrajectories {
-  Trajectory final;            // trajectory.tum
-  std::optional<Trajectory> vo;    // trajectory_vo.tum: the odometry (loop closure or refinement applied)
-  std::optional<Trajectory> loop;  // trajectory_loop.tum: after the pose graph, before refinement (both applied)
+  Trajectory final;              // trajectory.tum
+  std::optional<Trajectory> vo;  // trajectory_vo.tum: the odometry (loop closure or refinement applied)
+  std::optional<Trajectory>
+      loop;  // trajectory_loop.tum: after the pose graph, before refinement (both applied)
 };
 
 struct Evaluations {
@@ -157,8 +158,9 @@ Json ExportColmap(const RunOutputsInput& in, const std::filesystem::path& dir, d
   ColmapExportOptions colmap_options = in.request->options.colmap.export_options;
   colmap_options.threads = threads;
   const Clock::time_point colmap_start = Clock::now();
-  const ColmapExportReport colmap = WriteColmapModel(
-      rig, map, std::filesystem::absolute(index.root).lexically_normal(), colmap_options, dir / "colmap");
+  const ColmapExportReport colmap =
+      WriteColmapModel(rig, map, std::filesystem::absolute(index.root).lexically_normal(), colmap_options,
+                       dir / "colmap", in.loops != nullptr ? &in.loops->colors : nullptr);
   *seconds = SecondsSince(colmap_start);
   // The description names the staging folder: say "<out>/colmap" instead.
   std::string description = DescribeColmapExport(colmap);
@@ -199,13 +201,15 @@ Json ExportColmap(const RunOutputsInput& in, const std::filesystem::path& dir, d
 // One line on the global bundle adjustment for the report.
 std::string GlobalBaSummary(const RunOutputsInput& in) {
   if (in.refine == nullptr || !in.refine->applied) {
-    return in.refine != nullptr && !in.refine->ba.message.empty() ? "not run: " + in.refine->ba.message : "off";
+    return in.refine != nullptr && !in.refine->ba.message.empty() ? "not run: " + in.refine->ba.message
+                                                                  : "off";
   }
   const GlobalBaResult& ba = in.refine->ba;
-  return StrCat(ba.keyframes_refined, " keyframes, ", ba.landmarks_refined, " landmarks, ", ba.observations_used,
-                " observations (", ba.observations_removed, " removed as outliers), ", ba.constraints_used,
-                " loop constraint(s); rms error ", FormatFixed(ba.rms_error_px_before, 3), " px before, ",
-                FormatFixed(ba.rms_error_px_after, 3), " px after");
+  return StrCat(ba.keyframes_refined, " keyframes, ", ba.landmarks_refined, " landmarks, ",
+                ba.observations_used, " observations (", ba.observations_removed, " removed as outliers), ",
+                ba.constraints_used, " loop constraint(s); rms error ",
+                FormatFixed(ba.rms_error_px_before, 3), " px before, ", FormatFixed(ba.rms_error_px_after, 3),
+                " px after");
 }
 
 void WriteReport(const RunOutputsInput& in, const RunSummary& summary, const Evaluations& evals,
@@ -496,11 +500,14 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
   WriteTrajectory(dir / "trajectory_kitti.txt", trajectory, TrajectoryFormat::kKittiIndexed);
   WriteTrajectory(dir / "trajectory_euroc.csv", trajectory, TrajectoryFormat::kEuroc);
   WriteTrajectory(dir / "keyframes.tum", KeyframeTrajectory(odometry.keyframes), TrajectoryFormat::kTum);
-  const OdometryBeforeLoops* odometry_only = loops_applied ? in.before_loops : refined ? &in.refine->before : nullptr;
+  const OdometryBeforeLoops* odometry_only = loops_applied ? in.before_loops
+                                             : refined     ? &in.refine->before
+                                                           : nullptr;
   if (odometry_only != nullptr) {
     trajectories.vo = PosesTrajectory(odometry_only->poses);
     WriteTrajectory(dir / "trajectory_vo.tum", *trajectories.vo, TrajectoryFormat::kTum);
-    WriteTrajectory(dir / "keyframes_vo.tum", KeyframeTrajectory(odometry_only->keyframes), TrajectoryFormat::kTum);
+    WriteTrajectory(dir / "keyframes_vo.tum", KeyframeTrajectory(odometry_only->keyframes),
+                    TrajectoryFormat::kTum);
   }
   if (loops_applied && refined) {
     trajectories.loop = PosesTrajectory(in.refine->before.poses);

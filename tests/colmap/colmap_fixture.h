@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -22,11 +23,12 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "camera/test_cameras.h"
 #include "mcvo/camera/camera.h"
-#include "mcvo/map/sparse_map.h"
 #include "mcvo/geometry/rigid3d.h"
+#include "mcvo/map/sparse_map.h"
 #include "mcvo/synth/renderer.h"
 #include "mcvo/synth/scene.h"
 
@@ -250,6 +252,40 @@ inline CommandResult RunCommand(const std::string& command) {
 inline std::string ReadBytes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// Writes a keyframe image for every listed path: `make(camera)` gives it.
+template <typename Make>
+inline void WriteImages(const Rig& rig, const SparseMap& map, const fs::path& root, Make&& make) {
+  for (const MapKeyframe& keyframe : map.keyframes) {
+    for (int c = 0; c < rig.NumCameras(); ++c) {
+      const fs::path path = root / keyframe.images[c];
+      fs::create_directories(path.parent_path());
+      ASSERT_TRUE(cv::imwrite(path.string(), make(rig.cameras[c])));
+    }
+  }
+}
+
+inline cv::Mat NoiseImage(const Camera& camera) {
+  cv::Mat image(camera.height, camera.width, CV_8UC1);
+  cv::RNG rng(static_cast<uint64_t>(camera.width) * 7919u + static_cast<uint64_t>(camera.height));
+  rng.fill(image, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(image, image, cv::Size(5, 5), 1.5);
+  return image;
+}
+
+// Relative path -> bytes of every file (links: their target) below dir.
+inline std::map<std::string, std::string> TreeContents(const fs::path& dir) {
+  std::map<std::string, std::string> contents;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    const std::string relative = fs::relative(entry.path(), dir).generic_string();
+    if (entry.is_symlink()) {
+      contents[relative] = "link:" + fs::read_symlink(entry.path()).string();
+    } else if (entry.is_regular_file()) {
+      contents[relative] = ReadBytes(entry.path());
+    }
+  }
+  return contents;
 }
 
 }  // namespace mcvo::test

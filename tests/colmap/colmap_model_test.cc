@@ -27,7 +27,10 @@
 namespace mcvo {
 namespace {
 
+using test::NoiseImage;
 using test::ScratchDir;
+using test::TreeContents;
+using test::WriteImages;
 namespace fs = std::filesystem;
 
 ColmapExportOptions NoImages() {
@@ -70,40 +73,6 @@ const MapLandmark& Landmark(const SparseMap& map, int64_t id) {
   }
   ADD_FAILURE() << "no landmark " << id;
   return map.landmarks.front();
-}
-
-// Writes a keyframe image for every listed path: `make(camera)` gives it.
-template <typename Make>
-void WriteImages(const Rig& rig, const SparseMap& map, const fs::path& root, Make&& make) {
-  for (const MapKeyframe& keyframe : map.keyframes) {
-    for (int c = 0; c < rig.NumCameras(); ++c) {
-      const fs::path path = root / keyframe.images[c];
-      fs::create_directories(path.parent_path());
-      ASSERT_TRUE(cv::imwrite(path.string(), make(rig.cameras[c])));
-    }
-  }
-}
-
-cv::Mat NoiseImage(const Camera& camera) {
-  cv::Mat image(camera.height, camera.width, CV_8UC1);
-  cv::RNG rng(static_cast<uint64_t>(camera.width) * 7919u + static_cast<uint64_t>(camera.height));
-  rng.fill(image, cv::RNG::UNIFORM, 0, 256);
-  cv::GaussianBlur(image, image, cv::Size(5, 5), 1.5);
-  return image;
-}
-
-// Relative path -> bytes of every file (links: their target) below dir.
-std::map<std::string, std::string> TreeContents(const fs::path& dir) {
-  std::map<std::string, std::string> contents;
-  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
-    const std::string relative = fs::relative(entry.path(), dir).generic_string();
-    if (entry.is_symlink()) {
-      contents[relative] = "link:" + fs::read_symlink(entry.path()).string();
-    } else if (entry.is_regular_file()) {
-      contents[relative] = test::ReadBytes(entry.path());
-    }
-  }
-  return contents;
 }
 
 // ---------------------------------------------------------------------------

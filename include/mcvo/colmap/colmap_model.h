@@ -25,16 +25,19 @@
 #include <cstdint>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
+#include <opencv2/core/mat.hpp>
 
 #include "mcvo/camera/camera.h"
-#include "mcvo/map/sparse_map.h"
 #include "mcvo/geometry/rigid3d.h"
+#include "mcvo/map/sparse_map.h"
 #include "mcvo/util/enum_names.h"
 
 namespace mcvo {
@@ -281,6 +284,34 @@ struct ColmapExportReport {
   std::vector<std::string> notes;                  // what a user should know, one line each
 };
 
+// Point colours sampled ahead of the export from images decoded for another
+// reason (a run's loop stage reads every keyframe's images): one image's
+// pixels (source image, OpenCV convention) and their colours, as
+// SampleColmapColors gives them.
+struct ColmapColorSamples {
+  std::vector<Eigen::Vector2d> pixels;  // ascending (x, then y), unique
+  std::vector<Eigen::Vector3d> colors;  // RGB in [0, 255]
+  std::vector<bool> has_color;          // false: a bilinear neighbour is outside the image
+  // The index of exactly this pixel in `pixels`, -1 when it was not sampled.
+  int Find(const Eigen::Vector2d& pixel) const;
+};
+// Per (frame index of the map keyframe, rig camera index).
+using ColmapColorTable = std::map<std::pair<int, int>, ColmapColorSamples>;
+
+// A dataset image decoded as the export samples its colours: cv::imread with
+// IMREAD_ANYDEPTH | IMREAD_ANYCOLOR (depth and colour kept, the EXIF
+// orientation applied as in the frontend's IMREAD_GRAYSCALE reads, so the
+// observations' pixels fall on the same image); an empty Mat when the file
+// is missing or cannot be decoded.
+cv::Mat DecodeColmapColorImage(const std::filesystem::path& path);
+
+// Samples `pixels` of a decoded image (DecodeColmapColorImage; any depth and
+// channel count) exactly as the export does:
+// the image as 8-bit BGR, each pixel's colour bilinear, none where a
+// neighbour is outside the image (COLMAP's color_extractor). Duplicate
+// pixels are sampled once.
+ColmapColorSamples SampleColmapColors(const cv::Mat& decoded, std::vector<Eigen::Vector2d> pixels);
+
 // Writes the COLMAP workspace of `map` into out_dir (layout above), staged
 // in "<out_dir>.tmp-<pid>" and renamed when complete: out_dir is complete or
 // absent. Image paths of the keyframes are resolved against dataset_root
@@ -289,9 +320,14 @@ struct ColmapExportReport {
 // does not fit the rig, a missing image in link/copy mode, an existing
 // non-empty out_dir without overwrite) and UsageError when kUndistort
 // applies to a camera and image_mode is none.
+// colors (optional): an image whose observation pixels are all in the table
+// (with sample_colors on and no undistortion to write) takes its colours from
+// there and is not decoded; the model is the same as without the table when
+// the table was sampled from the same files.
 ColmapExportReport WriteColmapModel(const Rig& rig, const SparseMap& map,
                                     const std::filesystem::path& dataset_root,
-                                    const ColmapExportOptions& options, const std::filesystem::path& out_dir);
+                                    const ColmapExportOptions& options, const std::filesystem::path& out_dir,
+                                    const ColmapColorTable* colors = nullptr);
 
 // The report as a few human-readable lines (counts, mean error, each camera's
 // mapping and fit, notes).
