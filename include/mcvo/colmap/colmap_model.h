@@ -299,7 +299,7 @@ struct ColmapColorSamples {
 using ColmapColorTable = std::map<std::pair<int, int>, ColmapColorSamples>;
 
 // A dataset image decoded as the export samples its colours: cv::imread with
-// IMREAD_ANYDEPTH | IMREAD_ANYCOLOR (depth and colour kept, the EXIF
+// IMREAD_ANYDEPTH | IMREAD_ANYCOLOR (depth and colour kept, alpha dropped, the EXIF
 // orientation applied as in the frontend's IMREAD_GRAYSCALE reads, so the
 // observations' pixels fall on the same image); an empty Mat when the file
 // is missing or cannot be decoded.
