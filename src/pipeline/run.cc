@@ -94,6 +94,26 @@ DatasetIndex CameraOfIndex(const DatasetIndex& index, int camera) {
   return out;
 }
 
+// The run's closing lines: frames, accuracy, the warning, where it went.
+void LogRunSummary(const RunSummary& summary, const std::filesystem::path& out_dir) {
+  MCVO_LOG(kInfo, "run: ", summary.frames, " frames (", summary.posed_frames, " posed, ", summary.keyframes,
+           " keyframes, ", summary.segments, " segment(s)) in ", FormatFixed(summary.seconds, 2), " s (",
+           FormatFixed(summary.frames_per_second, 2), " fps)");
+  if (summary.evaluated && summary.scale_arbitrary) {
+    MCVO_LOG(kInfo, "run: ATE rmse ", FormatFixed(summary.ate_rmse_m, 3), " m (",
+             FormatFixed(summary.ate_percent_of_path, 3), " % of ", FormatFixed(summary.gt_path_length_m, 1),
+             " m), arbitrary scale: 1 unit = ", FormatFixed(summary.unit_m, 4), " m (",
+             EnumToName(kAlignmentModeNames, summary.alignment), " alignment)");
+  } else if (summary.evaluated) {
+    MCVO_LOG(kInfo, "run: ATE rmse ", FormatFixed(summary.ate_rmse_m, 3), " m (",
+             FormatFixed(summary.ate_percent_of_path, 3), " % of ", FormatFixed(summary.gt_path_length_m, 1),
+             " m), scale error ", FormatFixed(summary.scale_error_percent, 3), " % (",
+             EnumToName(kAlignmentModeNames, summary.alignment), " alignment)");
+  }
+  if (!summary.warning.empty()) MCVO_LOG(kWarning, "run: ", summary.warning);
+  MCVO_LOG(kInfo, "run: wrote ", out_dir.string());
+}
+
 }  // namespace
 
 DatasetIndex OpenRunDataset(const DatasetOptions& options) {
@@ -313,22 +333,7 @@ RunSummary RunPipeline(const RunRequest& request) {
     MCVO_THROW_INPUT(absolute_out.string(), ": cannot move the finished run into place: ", ec.message());
   staging.Release();
 
-  MCVO_LOG(kInfo, "run: ", summary.frames, " frames (", summary.posed_frames, " posed, ", summary.keyframes,
-           " keyframes, ", summary.segments, " segment(s)) in ", FormatFixed(summary.seconds, 2), " s (",
-           FormatFixed(summary.frames_per_second, 2), " fps)");
-  if (summary.evaluated && summary.scale_arbitrary) {
-    MCVO_LOG(kInfo, "run: ATE rmse ", FormatFixed(summary.ate_rmse_m, 3), " m (",
-             FormatFixed(summary.ate_percent_of_path, 3), " % of ", FormatFixed(summary.gt_path_length_m, 1),
-             " m), arbitrary scale: 1 unit = ", FormatFixed(summary.unit_m, 4), " m (",
-             EnumToName(kAlignmentModeNames, summary.alignment), " alignment)");
-  } else if (summary.evaluated) {
-    MCVO_LOG(kInfo, "run: ATE rmse ", FormatFixed(summary.ate_rmse_m, 3), " m (",
-             FormatFixed(summary.ate_percent_of_path, 3), " % of ", FormatFixed(summary.gt_path_length_m, 1),
-             " m), scale error ", FormatFixed(summary.scale_error_percent, 3), " % (",
-             EnumToName(kAlignmentModeNames, summary.alignment), " alignment)");
-  }
-  if (!summary.warning.empty()) MCVO_LOG(kWarning, "run: ", summary.warning);
-  MCVO_LOG(kInfo, "run: wrote ", absolute_out.string());
+  LogRunSummary(summary, absolute_out);
   return summary;
 }
 
