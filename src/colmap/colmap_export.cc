@@ -169,7 +169,6 @@ void WriteImage(const fs::path& path, const cv::Mat& image) {
   if (!ok) MCVO_THROW_INPUT(path.string(), ": cannot write the image");
 }
 
-// Links, copies or remaps one image into images/ and samples its colours.
 // The colours of every observation of `image` from `samples`; false (result
 // untouched) when a pixel is missing there.
 bool ColorsFromSamples(const PendingImage& image, const ColmapColorSamples& samples, ImageResult* result) {
@@ -189,6 +188,7 @@ bool ColorsFromSamples(const PendingImage& image, const ColmapColorSamples& samp
   return true;
 }
 
+// Links, copies or remaps one image into images/ and samples its colours;
 // samples: colours sampled ahead (WriteColmapModel's table), or null.
 void ProcessImage(const PendingImage& image, const ColmapCameraExport& camera_export, const cv::Mat* map_x,
                   const cv::Mat* map_y, const ColmapExportOptions& options, const fs::path& image_dir,
