@@ -83,8 +83,8 @@ std::string ScaleLogCsv(const Rig& rig, const std::vector<ScaleLogEntry>& scale_
 struct StageTrajectories {
   Trajectory final;              // trajectory.tum
   std::optional<Trajectory> vo;  // trajectory_vo.tum: the odometry (loop closure or refinement applied)
-  std::optional<Trajectory>
-      loop;  // trajectory_loop.tum: after the pose graph, before refinement (both applied)
+  // trajectory_loop.tum: after the pose graph, before refinement (both applied).
+  std::optional<Trajectory> loop;
 };
 
 struct Evaluations {
