@@ -18,37 +18,13 @@
 #include "mcvo/util/option_checks.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/strings.h"
+#include "orb_describe.h"
 
 namespace mcvo {
 namespace {
 
 constexpr double kFocalPx = 460.0;  // thresholds "at focal 460", as the back end's
 constexpr double kRadToDeg = 180.0 / M_PI;
-
-// ORB's orientation of a keypoint (Rublee et al.: the direction from the
-// centre to the intensity centroid of the disc of `radius` around it), in
-// degrees [0, 360), on the level-0 image; 0 where the disc leaves the image.
-// cv::ORB::compute keeps a given keypoint's angle (-1 when unset: an
-// upright descriptor), which does not match the oriented descriptors of its
-// own detections.
-float IntensityCentroidAngle(const cv::Mat& image, float x, float y, int radius) {
-  const int cx = static_cast<int>(std::lround(x)), cy = static_cast<int>(std::lround(y));
-  if (cx - radius < 0 || cy - radius < 0 || cx + radius >= image.cols || cy + radius >= image.rows)
-    return 0.0f;
-  double m01 = 0.0, m10 = 0.0;
-  for (int v = -radius; v <= radius; ++v) {
-    const uint8_t* row = image.ptr<uint8_t>(cy + v);
-    const int half = static_cast<int>(std::sqrt(static_cast<double>(radius * radius - v * v)));
-    for (int u = -half; u <= half; ++u) {
-      const double value = row[cx + u];
-      m10 += u * value;
-      m01 += v * value;
-    }
-  }
-  double angle = std::atan2(m01, m10) * 180.0 / M_PI;
-  if (angle < 0.0) angle += 360.0;
-  return static_cast<float>(angle);
-}
 
 // Coarsest level feature_max_megapixels may pick (1/16 of each side).
 constexpr int kMaxFeatureLevel = 4;
@@ -78,6 +54,7 @@ void LoopClosureOptions::Check() const {
   CheckInRange("/loop/landmark_levels", landmark_levels, 1, 8);
   CheckAtLeast("/loop/max_correction_fraction", max_correction_fraction, 0.0);
   CheckAtLeast("/loop/max_correction_floor_m", max_correction_floor_m, 0.0);
+  cross_camera.Check();
 }
 
 struct LoopCloser::Impl {
@@ -94,6 +71,9 @@ struct LoopCloser::Impl {
     std::vector<Eigen::Vector3d> landmark_point;
     cv::Mat landmark_descriptors;
     std::vector<bool> camera_has_features;
+    // With cross-camera links: the landmark pixels as
+    // loop/cross_camera_links.h takes them.
+    LinkKeyframe link;
   };
 
   struct Entry {
@@ -103,6 +83,7 @@ struct LoopCloser::Impl {
     std::vector<int64_t> landmark_id;
     std::vector<Eigen::Vector3d> landmark_point;
     cv::Mat landmark_descriptors;
+    LinkKeyframe link;  // with cross-camera links (options.cross_camera)
   };
 
   Impl(const Rig& rig_in, std::vector<cv::Mat> masks_in, Vocabulary vocabulary_in,
@@ -146,6 +127,11 @@ struct LoopCloser::Impl {
     cv::Mat detection_descriptors;
     std::vector<int> point_index;  // of landmark keypoints kept by ORB (border)
     cv::Mat point_descriptors;
+    // With cross-camera links: oriented level-0 descriptors at the landmark
+    // pixels (the cameras' roll differs), whatever the loop closer's own
+    // landmark descriptors are (kept by ORB: indices into keyframe.points).
+    std::vector<int> link_point_index;
+    cv::Mat link_point_descriptors;
   };
 
   CameraFeatures ExtractCamera(int camera, const LoopKeyframe& keyframe) const {
@@ -168,6 +154,18 @@ struct LoopCloser::Impl {
     const cv::Mat& mask = feature_masks[static_cast<size_t>(camera)];
     orb->detectAndCompute(image, mask.empty() || mask.size() != image.size() ? cv::noArray() : mask,
                           out.detections, out.detection_descriptors);
+    if (options.cross_camera.window_keyframes > 0) {
+      std::vector<cv::Point2f> points;
+      std::vector<int> point_of;
+      for (size_t k = 0; k < keyframe.points.size(); ++k) {
+        const LoopKeyframe::Point& p = keyframe.points[k];
+        if (p.camera != camera) continue;
+        points.emplace_back(static_cast<float>(p.pixel.x()) / factor, static_cast<float>(p.pixel.y()) / factor);
+        point_of.push_back(static_cast<int>(k));
+      }
+      loop_internal::DescribeOriented(orb, image, points, &out.link_point_index, &out.link_point_descriptors);
+      for (int& k : out.link_point_index) k = point_of[static_cast<size_t>(k)];
+    }
     for (cv::KeyPoint& kp : out.detections) kp.pt *= factor;
     std::vector<cv::KeyPoint> points;
     for (size_t k = 0; k < keyframe.points.size(); ++k) {
@@ -181,7 +179,7 @@ struct LoopCloser::Impl {
         kp.octave = level;
         kp.class_id = static_cast<int>(k);
         if (options.landmark_orientation) {
-          kp.angle = IntensityCentroidAngle(image, kp.pt.x, kp.pt.y,
+          kp.angle = loop_internal::IntensityCentroidAngle(image, kp.pt.x, kp.pt.y,
                                             static_cast<int>(std::lround(15.0 * std::pow(1.2, level))));
         }
         points.push_back(kp);
@@ -229,6 +227,19 @@ struct LoopCloser::Impl {
       }
       if (!cf.point_descriptors.empty()) point_rows.push_back(cf.point_descriptors);
     }
+    std::vector<cv::Mat> link_point_rows;
+    for (int c = 0; c < n; ++c) {
+      const CameraFeatures& cf = per_camera[static_cast<size_t>(c)];
+      for (int k : cf.link_point_index) {
+        const LoopKeyframe::Point& p = keyframe.points[static_cast<size_t>(k)];
+        f.link.camera.push_back(c);
+        f.link.pixel.push_back(p.pixel);
+        f.link.landmark_id.push_back(p.landmark_id);
+        f.link.point_in_world.push_back(p.point_in_world);
+      }
+      if (!cf.link_point_descriptors.empty()) link_point_rows.push_back(cf.link_point_descriptors);
+    }
+    if (!link_point_rows.empty()) cv::vconcat(link_point_rows, f.link.descriptors);
     cv::Mat detections, points;
     if (!detection_rows.empty()) cv::vconcat(detection_rows, detections);
     if (!point_rows.empty()) cv::vconcat(point_rows, points);
@@ -545,6 +556,9 @@ struct LoopCloser::Impl {
     entry.landmark_id = features.landmark_id;
     entry.landmark_point = features.landmark_point;
     entry.landmark_descriptors = features.landmark_descriptors;
+    entry.link = features.link;
+    entry.link.frame_index = keyframe.frame_index;
+    entry.link.world_from_rig = keyframe.world_from_rig;
     entries.push_back(std::move(entry));
     for (const auto& [word, weight] : bow) inverted[word].emplace_back(index, weight);
   }
@@ -626,6 +640,18 @@ void LoopCloser::AddMapKeyframe(const LoopKeyframe& keyframe) { impl_->AddMapKey
 
 std::vector<LoopAttempt> LoopCloser::Relocalise(const LoopKeyframe& query, int max_candidates) {
   return impl_->Relocalise(query, max_candidates);
+}
+
+std::vector<CrossCameraLink> LoopCloser::CrossCameraLinks(const std::vector<std::pair<int, int>>& overlapping) {
+  const Impl& impl = *impl_;
+  if (impl.options.cross_camera.window_keyframes <= 0) return {};
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<LinkKeyframe> keyframes;
+  keyframes.reserve(impl.entries.size());
+  for (const Impl::Entry& e : impl.entries) keyframes.push_back(e.link);
+  std::vector<CrossCameraLink> links = FindCrossCameraLinks(impl.rig, keyframes, impl.options.cross_camera, impl.threads, overlapping);
+  impl_->timing.cross_camera_s += Seconds(start);
+  return links;
 }
 
 int LoopCloser::num_keyframes() const { return static_cast<int>(impl_->entries.size()); }

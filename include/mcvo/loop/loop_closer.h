@@ -55,6 +55,7 @@
 
 #include "mcvo/camera/camera.h"
 #include "mcvo/geometry/rigid3d.h"
+#include "mcvo/loop/cross_camera_links.h"
 #include "mcvo/loop/pose_graph.h"
 #include "mcvo/loop/vocabulary.h"
 
@@ -97,6 +98,9 @@ struct LoopClosureOptions {
   // upright. Relocalisation sets it; loop closure keeps its config value
   // (false by default until measured on the suite).
   bool landmark_orientation = false;
+  // Cross-camera links across time among the keyframes added
+  // (CrossCameraLinks, loop/cross_camera_links.h).
+  CrossCameraLinkOptions cross_camera;
   // Throws InputError naming the field ("/loop/...").
   void Check() const;
 };
@@ -150,6 +154,7 @@ struct LoopTiming {
   double features_s = 0.0;      // ORB + BoW
   double query_s = 0.0;         // database
   double verification_s = 0.0;  // matching + rig PnP
+  double cross_camera_s = 0.0;  // CrossCameraLinks
 };
 
 class LoopCloser {
@@ -184,6 +189,13 @@ class LoopCloser {
   // without the consistency test; accepted == verified. The query is not
   // added.
   std::vector<LoopAttempt> Relocalise(const LoopKeyframe& query, int max_candidates);
+
+  // The cross-camera links across time (loop/cross_camera_links.h) among
+  // the keyframes added, with options.cross_camera, from the landmark
+  // descriptors and odometry poses the database holds; keyframe: the order
+  // of adding. None when its window_keyframes is 0. overlapping: the camera
+  // pairs whose views overlap (FindCrossCameraLinks).
+  std::vector<CrossCameraLink> CrossCameraLinks(const std::vector<std::pair<int, int>>& overlapping = {});
 
   int num_keyframes() const;
   const LoopTiming& timing() const;
