@@ -204,6 +204,19 @@ void Visit(V& v, PoseGraphOptions* o) {
 }
 
 template <typename V>
+void Visit(V& v, CrossCameraLinkOptions* o) {
+  v.Field("window_keyframes", &o->window_keyframes);
+  v.Field("radius_px", &o->radius_px);
+  v.Field("max_distance", &o->max_distance);
+  v.Field("ratio", &o->ratio);
+  v.Field("max_scale_error", &o->max_scale_error);
+  v.Field("max_reprojection_px", &o->max_reprojection_px);
+  v.Field("min_parallax_deg", &o->min_parallax_deg);
+  v.Field("max_view_angle_deg", &o->max_view_angle_deg);
+  v.Field("overlapping_pairs", &o->overlapping_pairs);
+}
+
+template <typename V>
 void Visit(V& v, LoopOptions* o) {
   v.Field("enabled", &o->enabled);
   v.Field("vocabulary_path", &o->vocabulary_path);
@@ -230,6 +243,7 @@ void Visit(V& v, LoopOptions* o) {
   v.Field("candidate_neighbours", &c.candidate_neighbours);
   v.Field("max_correction_fraction", &c.max_correction_fraction);
   v.Field("max_correction_floor_m", &c.max_correction_floor_m);
+  v.Section("cross_camera", &c.cross_camera);
   v.Section("pose_graph", &o->pose_graph);
 }
 

@@ -20,7 +20,7 @@ double SecondsSince(Clock::time_point start) {
 
 LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
                        const Vocabulary& vocabulary, const LoopOptions& options, int threads,
-                       bool sample_colors) {
+                       bool sample_colors, const std::vector<std::pair<int, int>>& overlapping_pairs) {
   LoopOutcome out;
   const Rig& rig = index.rig;
   LoopCloser closer(rig, index.masks, vocabulary, options.closure, threads);
@@ -39,6 +39,10 @@ LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEsti
   for (const LoopAttempt& attempt : out.attempts) {
     out.verified += attempt.verified ? 1 : 0;
     out.accepted += attempt.accepted ? 1 : 0;
+  }
+  out.cross_camera_links = closer.CrossCameraLinks(overlapping_pairs);
+  if (!out.cross_camera_links.empty()) {
+    MCVO_LOG(kInfo, "run: cross-camera links across time: ", out.cross_camera_links.size(), " landmark pairs");
   }
   out.timing = closer.timing();
   for (const KeyframeEstimate& kf : keyframes) out.keyframe_after.push_back(kf.world_from_rig);
@@ -84,6 +88,20 @@ std::string LoopsCsv(const std::vector<LoopAttempt>& attempts) {
                   a.inliers, ",", a.cameras_with_inliers, ",", a.verified ? 1 : 0, ",", a.accepted ? 1 : 0,
                   ",", FormatDouble(a.correction_m), ",", FormatDouble(a.correction_deg), ",",
                   CsvQuote(a.reason), "\n");
+  }
+  return csv;
+}
+
+std::string CrossCameraLinksCsv(const std::vector<CrossCameraLink>& links) {
+  std::string csv =
+      "keyframe,frame,camera,u,v,landmark_id,source_keyframe,source_frame,source_camera,source_u,source_v,"
+      "source_landmark_id,distance_bits,view_angle_deg,scale\n";
+  for (const CrossCameraLink& l : links) {
+    csv += StrCat(l.keyframe, ",", l.frame_index, ",", l.camera, ",", FormatFixed(l.pixel.x(), 3), ",",
+                  FormatFixed(l.pixel.y(), 3), ",", l.landmark_id, ",", l.source_keyframe, ",",
+                  l.source_frame_index, ",", l.source_camera, ",", FormatFixed(l.source_pixel.x(), 3), ",",
+                  FormatFixed(l.source_pixel.y(), 3), ",", l.source_landmark_id, ",", l.distance, ",",
+                  FormatFixed(l.view_angle_deg, 2), ",", FormatFixed(l.scale, 2), "\n");
   }
   return csv;
 }

@@ -32,18 +32,28 @@ struct LoopOutcome {
   PoseGraphResult graph;
   LoopTiming timing;
   double pose_graph_seconds = 0.0;
+  // Landmarks of two cameras seen at different keyframes that are one
+  // point (loop/cross_camera_links.h; keyframe: index into the keyframes
+  // given), whether or not a loop was accepted.
+  std::vector<CrossCameraLink> cross_camera_links;
   // With sample_colors: the COLMAP export's point colours at every
   // keyframe's observation pixels, sampled while its images were read for
   // the loop closer (the export then decodes none of them again).
   ColmapColorTable colors;
 };
 
+// overlapping_pairs: the camera pairs the frontend matches (their views
+// overlap), for the cross-camera links (loop/cross_camera_links.h).
 LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
                        const Vocabulary& vocabulary, const LoopOptions& options, int threads,
-                       bool sample_colors = false);
+                       bool sample_colors = false, const std::vector<std::pair<int, int>>& overlapping_pairs = {});
 
 // loops.csv: one line per verified or rejected candidate.
 std::string LoopsCsv(const std::vector<LoopAttempt>& attempts);
+
+// cross_camera_links.csv: one line per link (camera indices of the rig,
+// pixels at full resolution).
+std::string CrossCameraLinksCsv(const std::vector<CrossCameraLink>& links);
 
 // The odometry as it was before loop closure (for trajectory_vo.tum,
 // keyframes_vo.tum and eval_vo/).

@@ -90,6 +90,22 @@ std::vector<LoopLandmarkMatch> LoopMatches(const LoopOutcome* loops, const Spars
   return matches;
 }
 
+// The cross-camera links across time at keyframes of `map` (merges),
+// whether or not a loop was accepted.
+std::vector<LoopLandmarkMatch> CrossCameraMatches(const LoopOutcome* loops, const SparseMap& map) {
+  std::vector<LoopLandmarkMatch> matches;
+  if (loops == nullptr) return matches;
+  const std::map<int, int> keyframe_of_frame = KeyframeOfFrame(map);
+  for (const CrossCameraLink& link : loops->cross_camera_links) {
+    const auto at = keyframe_of_frame.find(link.frame_index);
+    if (at == keyframe_of_frame.end()) continue;
+    // The younger landmark merges into the older.
+    const auto [older, younger] = std::minmax(link.landmark_id, link.source_landmark_id);
+    matches.push_back({at->second, link.camera, link.pixel, older, younger});
+  }
+  return matches;
+}
+
 }  // namespace
 
 RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, const LoopOutcome* loops,
@@ -109,6 +125,13 @@ RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, con
     if (f.landmarks_merged + f.observations_added > 0) {
       MCVO_LOG(kInfo, "run: loop landmarks fused: ", f.landmarks_merged, " merged, ", f.observations_added,
                " observations added, ", f.merges_rejected, " merges rejected as ambiguous");
+    }
+    // After the loops' merges: a link naming a landmark merged there is ignored.
+    outcome.cross_camera_fusion = FuseLoopLandmarks(CrossCameraMatches(loops, fused), &fused);
+    const LandmarkFusionResult& x = outcome.cross_camera_fusion;
+    if (x.landmarks_merged + x.merges_rejected > 0) {
+      MCVO_LOG(kInfo, "run: cross-camera landmarks fused: ", x.landmarks_merged, " merged, ", x.merges_rejected,
+               " merges rejected as ambiguous, ", x.matches_ignored, " links ignored");
     }
   }
   outcome.ba = RunGlobalBundleAdjustment(rig, fused, scale_free, options, LoopConstraints(loops, pose_graph, fused));

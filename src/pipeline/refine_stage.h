@@ -18,6 +18,8 @@ struct RefineOutcome {
   bool extrinsics_refined = false;  // applied with options.refine_extrinsics: ba.cam_from_rig is the new rig
   GlobalBaResult ba;     // ba.map: the refined map (when applied)
   LandmarkFusionResult fusion;  // the loops' landmarks fused before it (options.fuse_loop_landmarks)
+  // Then the cross-camera links across time (LoopOutcome::cross_camera_links).
+  LandmarkFusionResult cross_camera_fusion;
   OdometryBeforeLoops before;  // poses and keyframes as they were before it
 };
 

@@ -12,6 +12,7 @@
 
 #include "loop_stage.h"
 #include "mcvo/eval/evaluate.h"
+#include "mcvo/frontend/cross_camera.h"
 #include "mcvo/io/rig_io.h"
 #include "mcvo/loop/vocabulary.h"
 #include "mcvo/pipeline/frame_source.h"
@@ -281,8 +282,8 @@ RunSummary RunPipeline(const RunRequest& request) {
   if (vocabulary) {
     // The COLMAP export's colours are sampled as the loop closer reads the images.
     const bool sample_colors = options.colmap.enabled && options.colmap.export_options.sample_colors;
-    loops = pipeline_internal::CloseLoops(posed, odometry.keyframes, *vocabulary, options.loop, threads,
-                                          sample_colors);
+    loops = pipeline_internal::CloseLoops(posed, odometry.keyframes, *vocabulary, options.loop, threads, sample_colors,
+                                          SelectCrossCameraPairs(posed.rig, posed.masks, options.frontend.cross_camera));
     MCVO_LOG(kInfo, "run: loop closure: ", odometry.keyframes.size(), " keyframes, ", loops.verified,
              " candidates verified, ", loops.accepted, " loop(s) accepted",
              loops.applied ? ", pose graph applied" : "");

@@ -301,6 +301,8 @@ Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Ev
   json["loop_landmarks_merged"] = refine.fusion.landmarks_merged;
   json["loop_observations_added"] = refine.fusion.observations_added;
   json["loop_merges_rejected"] = refine.fusion.merges_rejected;
+  json["cross_camera_landmarks_merged"] = refine.cross_camera_fusion.landmarks_merged;
+  json["cross_camera_merges_rejected"] = refine.cross_camera_fusion.merges_rejected;
   json["landmarks"] = ba.landmarks_refined;
   json["observations"] = ba.observations_used;
   json["observations_removed"] = ba.observations_removed;
@@ -382,6 +384,7 @@ Json ResultJson(const RunOutputsInput& in, const RunSummary& summary, const Eval
     result["loop_candidates_verified"] = loops.verified;
     result["loops_accepted"] = loops.accepted;
     result["loop_closure_applied"] = loops.applied;
+    result["cross_camera_links"] = loops.cross_camera_links.size();
     if (loops.applied && evals.odometry) {
       result["ate_rmse_m_before_loop_closure"] = evals.odometry->ate_translation_m.rmse;
       if (!summary.scale_arbitrary) {
@@ -420,6 +423,7 @@ Json TimingJson(const RunOutputsInput& in, const RunSummary& summary, double col
     timing["loop_query_s_per_keyframe"] = loops.timing.query_s / keyframe_count;
     timing["loop_verification_s_per_keyframe"] = loops.timing.verification_s / keyframe_count;
     timing["pose_graph_s_total"] = loops.pose_graph_seconds;
+    timing["cross_camera_links_s_total"] = loops.timing.cross_camera_s;
   }
   if (in.refine != nullptr) timing["global_ba_s_total"] = in.refine->ba.seconds;
   return timing;
@@ -516,6 +520,9 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
                     TrajectoryFormat::kTum);
   }
   if (in.loops != nullptr) WriteFileAtomic(dir / "loops.csv", LoopsCsv(in.loops->attempts));
+  if (in.loops != nullptr && !in.loops->cross_camera_links.empty()) {
+    WriteFileAtomic(dir / "cross_camera_links.csv", CrossCameraLinksCsv(in.loops->cross_camera_links));
+  }
   if (in.refine != nullptr && in.refine->extrinsics_refined) WriteRig(dir / "rig_refined.json", rig);
   WriteFileAtomic(dir / "scale_log.csv", ScaleLogCsv(rig, odometry.scale_log));
   WriteFileAtomic(dir / "frame_stats.csv", FrameStatsCsv(rig, odometry));
