@@ -3,9 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <unordered_map>
 #include <utility>
@@ -34,7 +34,9 @@ struct Source {
 // extrinsics do not.
 struct Ray {
   Eigen::Vector3d rig_origin, offset, direction;  // direction unit
-  Eigen::Vector3d Centre(const Eigen::Vector3d& c_j, double s) const { return c_j + s * (rig_origin - c_j) + offset; }
+  Eigen::Vector3d Centre(const Eigen::Vector3d& c_j, double s) const {
+    return c_j + s * (rig_origin - c_j) + offset;
+  }
 };
 
 struct Proposal {
@@ -46,15 +48,15 @@ struct Proposal {
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // the target's
 };
 
-// b's own landmark observations at keyframe j.
+// b's own landmark observations at keyframe j (a landmark has a row per
+// descriptor level in the loop closer's rows, one here).
 struct TargetRows {
-  std::vector<int64_t> key;
+  std::vector<int64_t> landmark_id;
   std::vector<Eigen::Vector2d> pixel;
   std::vector<const uchar*> descriptor;
   std::vector<Eigen::Vector3d> bearings;  // in camera b, unit
   std::set<int64_t> seen;
 };
-
 
 // Angle between unit vector t and the polyline through unit vectors `path`
 // (chords: the path spans a few degrees), in radians.
@@ -73,8 +75,8 @@ double AngleToPath(const Eigen::Vector3d& t, const std::vector<Eigen::Vector3d>&
 
 class LinkSearch {
  public:
-  LinkSearch(const Rig& rig, const std::vector<LinkKeyframe>& keyframes, const CrossCameraLinkOptions& options,
-             const std::vector<std::pair<int, int>>& overlapping)
+  LinkSearch(const Rig& rig, const std::vector<LinkKeyframe>& keyframes,
+             const CrossCameraLinkOptions& options, const std::vector<std::pair<int, int>>& overlapping)
       : rig_(rig),
         keyframes_(keyframes),
         options_(options),
@@ -111,10 +113,12 @@ class LinkSearch {
         if (!bearing) continue;
         std::vector<Ray>& rays = rays_[kf.landmark_id[r]];
         const Eigen::Vector3d offset = kf.world_from_rig.rotation * centre_in_rig_[c];
-        if (!rays.empty() && rays.back().rig_origin == kf.world_from_rig.translation && rays.back().offset == offset) {
+        if (!rays.empty() && rays.back().rig_origin == kf.world_from_rig.translation &&
+            rays.back().offset == offset) {
           continue;
         }
-        const Eigen::Vector3d direction = kf.world_from_rig.rotation * (cam_from_rig_[c].rotation.conjugate() * *bearing);
+        const Eigen::Vector3d direction =
+            kf.world_from_rig.rotation * (cam_from_rig_[c].rotation.conjugate() * *bearing);
         rays.push_back({kf.world_from_rig.translation, offset, direction.normalized()});
       }
     }
@@ -186,10 +190,10 @@ class LinkSearch {
   TargetRows Targets(const LinkKeyframe& target, int b) const {
     TargetRows out;
     const Camera& camera = rig_.cameras[static_cast<size_t>(b)];
-    const auto add = [&](int64_t key, const Eigen::Vector2d& pixel, const uchar* descriptor) {
+    const auto add = [&](int64_t id, const Eigen::Vector2d& pixel, const uchar* descriptor) {
       const std::optional<Eigen::Vector3d> bearing = camera.Unproject(pixel);
       if (!bearing) return;
-      out.key.push_back(key);
+      out.landmark_id.push_back(id);
       out.pixel.push_back(pixel);
       out.descriptor.push_back(descriptor);
       out.bearings.push_back(bearing->normalized());
@@ -224,20 +228,20 @@ class LinkSearch {
       path.push_back(in_cam.normalized());
     }
     const uchar* descriptor = from.descriptors.ptr<uchar>(source.row);
-    std::map<int64_t, int> distance;  // target landmark -> nearest of its rows
-    std::map<int64_t, size_t> first_row;  // key -> its first target row
+    std::map<int64_t, int> distance;      // target landmark -> nearest of its rows
+    std::map<int64_t, size_t> first_row;  // landmark -> its first target row
     // Cheap test first: within the radius of the path is within radius +
     // the path's half-length of its middle.
     const double reach = radius_rad_ + std::max(std::acos(std::clamp(path[0].dot(path[1]), -1.0, 1.0)),
                                                 std::acos(std::clamp(path[2].dot(path[1]), -1.0, 1.0)));
     const double cos_reach = std::cos(std::min(reach, M_PI));
-    for (size_t t = 0; t < targets.key.size(); ++t) {
+    for (size_t t = 0; t < targets.landmark_id.size(); ++t) {
       if (targets.bearings[t].dot(path[1]) < cos_reach) continue;
       if (AngleToPath(targets.bearings[t], path) > radius_rad_) continue;
       const int d = cv::hal::normHamming(descriptor, targets.descriptor[t], from.descriptors.cols);
-      const auto [it, inserted] = distance.emplace(targets.key[t], d);
+      const auto [it, inserted] = distance.emplace(targets.landmark_id[t], d);
       if (!inserted) it->second = std::min(it->second, d);
-      first_row.emplace(targets.key[t], t);
+      first_row.emplace(targets.landmark_id[t], t);
     }
     int best = -1, second = -1;
     int64_t best_id = 0;
@@ -261,7 +265,7 @@ class LinkSearch {
   void AtCamera(int j, int b, std::vector<CrossCameraLink>* links) const {
     const LinkKeyframe& target = keyframes_[static_cast<size_t>(j)];
     const TargetRows targets = Targets(target, b);
-    if (targets.key.empty()) return;
+    if (targets.landmark_id.empty()) return;
     const Eigen::Vector3d centre = target.world_from_rig * centre_in_rig_[static_cast<size_t>(b)];
     const std::unordered_map<int64_t, Source> sources = Sources(j, b, centre, targets.seen);
     std::vector<Proposal> proposals;
@@ -309,15 +313,16 @@ class LinkSearch {
                                               const std::set<int64_t>& seen) const {
     std::unordered_map<int64_t, Source> sources;
     const int n = static_cast<int>(keyframes_.size());
-    for (int k = std::max(0, j - options_.window_keyframes); k <= std::min(n - 1, j + options_.window_keyframes);
-         ++k) {
+    for (int k = std::max(0, j - options_.window_keyframes);
+         k <= std::min(n - 1, j + options_.window_keyframes); ++k) {
       const LinkKeyframe& kf = keyframes_[static_cast<size_t>(k)];
       for (size_t r = 0; r < kf.camera.size(); ++r) {
         const int c = kf.camera[r];
         if (!linked_[static_cast<size_t>(c) * rig_.cameras.size() + static_cast<size_t>(b)]) continue;
         const Eigen::Vector3d& point = kf.point_in_world[r];
         const Eigen::Vector3d from_target = point - centre;
-        const Eigen::Vector3d from_source = point - kf.world_from_rig * centre_in_rig_[static_cast<size_t>(c)];
+        const Eigen::Vector3d from_source =
+            point - kf.world_from_rig * centre_in_rig_[static_cast<size_t>(c)];
         const double norms = from_target.norm() * from_source.norm();
         if (!(norms > 0.0)) continue;
         const double cos_view = from_target.dot(from_source) / norms;
@@ -336,7 +341,7 @@ class LinkSearch {
   std::vector<Rigid3d> cam_from_rig_;
   std::vector<Eigen::Vector3d> centre_in_rig_;
   std::vector<double> scales_;
-  std::vector<bool> linked_;  // camera a * n + b: look for a's landmarks in b
+  std::vector<bool> linked_;                  // camera a * n + b: look for a's landmarks in b
   std::map<int64_t, std::vector<Ray>> rays_;  // per landmark
 };
 

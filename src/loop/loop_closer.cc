@@ -649,7 +649,8 @@ std::vector<CrossCameraLink> LoopCloser::CrossCameraLinks(const std::vector<std:
   std::vector<LinkKeyframe> keyframes;
   keyframes.reserve(impl.entries.size());
   for (const Impl::Entry& e : impl.entries) keyframes.push_back(e.link);
-  std::vector<CrossCameraLink> links = FindCrossCameraLinks(impl.rig, keyframes, impl.options.cross_camera, impl.threads, overlapping);
+  std::vector<CrossCameraLink> links =
+      FindCrossCameraLinks(impl.rig, keyframes, impl.options.cross_camera, impl.threads, overlapping);
   impl_->timing.cross_camera_s += Seconds(start);
   return links;
 }

@@ -25,8 +25,8 @@ float IntensityCentroidAngle(const cv::Mat& image, float x, float y, int radius)
   return static_cast<float>(angle);
 }
 
-void DescribeOriented(const cv::Ptr<cv::ORB>& orb, const cv::Mat& image, const std::vector<cv::Point2f>& pixels,
-                      std::vector<int>* kept, cv::Mat* descriptors) {
+void DescribeOriented(const cv::Ptr<cv::ORB>& orb, const cv::Mat& image,
+                      const std::vector<cv::Point2f>& pixels, std::vector<int>* kept, cv::Mat* descriptors) {
   std::vector<cv::KeyPoint> at;
   for (size_t k = 0; k < pixels.size(); ++k) {
     cv::KeyPoint kp(pixels[k], 31.0f);

@@ -20,7 +20,7 @@ float IntensityCentroidAngle(const cv::Mat& image, float x, float y, int radius)
 // Oriented ORB descriptors on level 0 (size 31) at `pixels` of `image`;
 // `kept` gets the indices of the pixels ORB kept (not at the border), in
 // the order of the descriptors' rows.
-void DescribeOriented(const cv::Ptr<cv::ORB>& orb, const cv::Mat& image, const std::vector<cv::Point2f>& pixels,
-                      std::vector<int>* kept, cv::Mat* descriptors);
+void DescribeOriented(const cv::Ptr<cv::ORB>& orb, const cv::Mat& image,
+                      const std::vector<cv::Point2f>& pixels, std::vector<int>* kept, cv::Mat* descriptors);
 
 }  // namespace mcvo::loop_internal

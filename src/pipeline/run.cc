@@ -282,8 +282,9 @@ RunSummary RunPipeline(const RunRequest& request) {
   if (vocabulary) {
     // The COLMAP export's colours are sampled as the loop closer reads the images.
     const bool sample_colors = options.colmap.enabled && options.colmap.export_options.sample_colors;
-    loops = pipeline_internal::CloseLoops(posed, odometry.keyframes, *vocabulary, options.loop, threads, sample_colors,
-                                          SelectCrossCameraPairs(posed.rig, posed.masks, options.frontend.cross_camera));
+    const auto matched_pairs = SelectCrossCameraPairs(posed.rig, posed.masks, options.frontend.cross_camera);
+    loops = pipeline_internal::CloseLoops(posed, odometry.keyframes, *vocabulary, options.loop, threads,
+                                          sample_colors, matched_pairs);
     MCVO_LOG(kInfo, "run: loop closure: ", odometry.keyframes.size(), " keyframes, ", loops.verified,
              " candidates verified, ", loops.accepted, " loop(s) accepted",
              loops.applied ? ", pose graph applied" : "");

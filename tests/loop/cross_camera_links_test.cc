@@ -30,7 +30,8 @@ Rig SideRig() {
   Eigen::Matrix3d r;
   r << 0, 0, -1, 0, 1, 0, 1, 0, 0;
   for (double z : {kHalfBaseM, -kHalfBaseM}) {
-    Camera camera = test::MakeCamera(z > 0 ? "front" : "rear", CameraModelId::kPinhole, {800, 800, 320, 240}, 640, 480);
+    Camera camera =
+        test::MakeCamera(z > 0 ? "front" : "rear", CameraModelId::kPinhole, {800, 800, 320, 240}, 640, 480);
     camera.cam_from_rig = Rigid3d(r, -(r * Eigen::Vector3d(0, 0, z)));
     rig.cameras.push_back(camera);
   }
@@ -72,10 +73,12 @@ Scenario MakeScenario(double scale, bool distractors = false, bool impostor = fa
     kf.world_from_rig = Rigid3d(Eigen::Quaterniond::Identity(), scale * position);  // the odometry's
     for (int c = 0; c < 2; ++c) {
       const Camera& camera = s.rig.cameras[static_cast<size_t>(c)];
-      const Rigid3d cam_from_world = camera.cam_from_rig * Rigid3d(Eigen::Quaterniond::Identity(), position).Inverse();
+      const Rigid3d cam_from_world =
+          camera.cam_from_rig * Rigid3d(Eigen::Quaterniond::Identity(), position).Inverse();
       const Eigen::Vector3d offset = camera.cam_from_rig.Inverse().translation;
       for (size_t i = 0; i < points.size(); ++i) {
-        const Eigen::Vector3d point = impostor && c == 1 ? points[i] - Eigen::Vector3d(0.4, 0.0, 0.0) : points[i];
+        const Eigen::Vector3d point =
+            impostor && c == 1 ? points[i] - Eigen::Vector3d(0.4, 0.0, 0.0) : points[i];
         const std::optional<Eigen::Vector2d> pixel = camera.Project(cam_from_world * point);
         if (!pixel || !camera.IsInImage(*pixel) || pixel->x() < 20 || pixel->x() > 620) continue;
         const int64_t id = (c == 0 ? 0 : kRearIdOffset) + static_cast<int64_t>(i);
@@ -120,7 +123,8 @@ TEST(CrossCameraLinksTest, LinksTheRearCamerasLandmarksToTheFrontOnesAndMeasures
     for (const CrossCameraLink& link : links) {
       EXPECT_EQ(s.point_of.at(link.landmark_id), s.point_of.at(link.source_landmark_id));
       EXPECT_NE(link.camera, link.source_camera);
-      EXPECT_TRUE(pairs.insert(std::minmax(link.landmark_id, link.source_landmark_id)).second) << "reported twice";
+      EXPECT_TRUE(pairs.insert(std::minmax(link.landmark_id, link.source_landmark_id)).second)
+          << "reported twice";
       // The motion that makes the two cameras' rays meet: 1 / scale.
       EXPECT_NEAR(link.scale, 1.0 / scale, 0.011);
       EXPECT_LE(link.view_angle_deg, Options().max_view_angle_deg);
@@ -163,7 +167,8 @@ TEST(CrossCameraLinksTest, NeighboursWithOtherDescriptorsDoNotWin) {
   const Scenario plain = MakeScenario(1.03);
   const Scenario s = MakeScenario(1.03, true);
   const std::vector<CrossCameraLink> links = FindCrossCameraLinks(s.rig, s.keyframes, Options(), 2);
-  const std::vector<CrossCameraLink> expected = FindCrossCameraLinks(plain.rig, plain.keyframes, Options(), 2);
+  const std::vector<CrossCameraLink> expected =
+      FindCrossCameraLinks(plain.rig, plain.keyframes, Options(), 2);
   ASSERT_EQ(links.size(), expected.size());
   for (size_t i = 0; i < links.size(); ++i) {
     EXPECT_EQ(links[i].landmark_id, expected[i].landmark_id);

@@ -82,7 +82,8 @@ int Run(const std::string& dataset, const std::string& run_dir, bool per_link) {
     MCVO_THROW_INPUT(dataset, "/meta.json: expected the keys scene and seed");
   }
   const mcvo::Rig rig = mcvo::ReadRig(dataset + "/rig.json");
-  const mcvo::Trajectory gt = mcvo::ReadTrajectory(dataset + "/groundtruth.tum", mcvo::TrajectoryFormat::kTum);
+  const mcvo::Trajectory gt =
+      mcvo::ReadTrajectory(dataset + "/groundtruth.tum", mcvo::TrajectoryFormat::kTum);
   if (gt.poses.empty()) MCVO_THROW_INPUT(dataset, "/groundtruth.tum: no poses");
   const mcvo::synth::SceneWithRoute world =
       mcvo::synth::BuildScene(meta["scene"].get<std::string>(), meta["seed"].get<uint64_t>());
@@ -90,7 +91,8 @@ int Run(const std::string& dataset, const std::string& run_dir, bool per_link) {
   const int64_t first_t_ns = gt.poses.front().t_ns;
 
   // The static scene point a pixel sees, if any.
-  const auto cast = [&](int frame, int camera, const Eigen::Vector2d& pixel) -> std::optional<Eigen::Vector3d> {
+  const auto cast = [&](int frame, int camera,
+                        const Eigen::Vector2d& pixel) -> std::optional<Eigen::Vector3d> {
     if (frame < 0 || static_cast<size_t>(frame) >= gt.poses.size()) return std::nullopt;
     if (camera < 0 || camera >= rig.NumCameras()) return std::nullopt;
     const mcvo::Camera& cam = rig.cameras[static_cast<size_t>(camera)];
@@ -105,7 +107,8 @@ int Run(const std::string& dataset, const std::string& run_dir, bool per_link) {
   };
 
   Tally all;
-  std::vector<std::pair<int, Tally>> by_distance = {{20, {}}, {30, {}}, {40, {}}, {50, {}}, {64, {}}, {256, {}}};
+  std::vector<std::pair<int, Tally>> by_distance = {{20, {}}, {30, {}}, {40, {}},
+                                                    {50, {}}, {64, {}}, {256, {}}};
   std::vector<std::pair<double, Tally>> by_angle = {{10, {}}, {20, {}}, {30, {}}, {40, {}}, {180, {}}};
   std::vector<double> wrong_error;
   for (const Row& r : rows) {

@@ -101,9 +101,9 @@ struct CrossCameraLink {
   int source_frame_index = 0;
   int source_camera = 0;
   Eigen::Vector2d source_pixel = Eigen::Vector2d::Zero();  // L's
-  int64_t source_landmark_id = 0;                                // L
-  int distance = 0;  // Hamming, bits
-  double view_angle_deg = 0.0;  // between the two observations' rays to L's point
+  int64_t source_landmark_id = 0;                          // L
+  int distance = 0;                                        // Hamming, bits
+  double view_angle_deg = 0.0;                             // between the two observations' rays to L's point
   // The scale of the odometry's motion (about keyframe j's rig origin) under
   // which the two landmarks' rays meet best: a measurement of the local
   // scale error, 1 where the odometry is right.
