@@ -214,6 +214,7 @@ void Visit(V& v, CrossCameraLinkOptions* o) {
   v.Field("min_parallax_deg", &o->min_parallax_deg);
   v.Field("max_view_angle_deg", &o->max_view_angle_deg);
   v.Field("overlapping_pairs", &o->overlapping_pairs);
+  v.Field("max_pair_overlap", &o->max_pair_overlap);
 }
 
 template <typename V>

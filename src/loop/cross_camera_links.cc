@@ -13,6 +13,7 @@
 #include <Eigen/LU>
 #include <opencv2/core/hal/hal.hpp>
 
+#include "mcvo/dataset/overlap.h"
 #include "mcvo/util/option_checks.h"
 #include "mcvo/util/parallel.h"
 
@@ -95,6 +96,16 @@ class LinkSearch {
         if (a < 0 || b < 0 || static_cast<size_t>(a) >= n || static_cast<size_t>(b) >= n) continue;
         linked_[static_cast<size_t>(a) * n + static_cast<size_t>(b)] = false;
         linked_[static_cast<size_t>(b) * n + static_cast<size_t>(a)] = false;
+      }
+    }
+    if (options.max_pair_overlap < 1.0) {
+      for (size_t a = 0; a < n; ++a) {
+        for (size_t b = a + 1; b < n; ++b) {
+          const Camera &ca = rig.cameras[a], &cb = rig.cameras[b];
+          const double mutual =
+              std::min(ViewOverlap(ca, cb, kViewOverlapDepthM), ViewOverlap(cb, ca, kViewOverlapDepthM));
+          if (mutual > options.max_pair_overlap) linked_[a * n + b] = linked_[b * n + a] = false;
+        }
       }
     }
     // The scale hypotheses, nearest to 1 first (ties in the error go to it).
@@ -356,6 +367,7 @@ void CrossCameraLinkOptions::Check() const {
   CheckPositive("/loop/cross_camera/max_reprojection_px", max_reprojection_px);
   CheckInRange("/loop/cross_camera/min_parallax_deg", min_parallax_deg, 0.0, 90.0);
   CheckInRange("/loop/cross_camera/max_view_angle_deg", max_view_angle_deg, 0.0, 180.0);
+  CheckInRange("/loop/cross_camera/max_pair_overlap", max_pair_overlap, 0.0, 1.0);
 }
 
 std::vector<CrossCameraLink> FindCrossCameraLinks(const Rig& rig, const std::vector<LinkKeyframe>& keyframes,

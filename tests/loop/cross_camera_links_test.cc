@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "camera/test_cameras.h"
+#include "mcvo/dataset/overlap.h"
 #include "mcvo/loop/cross_camera_links.h"
 #include "mcvo/util/error.h"
 
@@ -202,6 +203,23 @@ TEST(CrossCameraLinksTest, CameraPairsWhoseViewsOverlapCanBeLeftToTheFrontend) {
             FindCrossCameraLinks(s.rig, s.keyframes, Options(), 2).size());
 }
 
+TEST(CrossCameraLinksTest, PairsLookingTheSameWayCanBeLeftOut) {
+  const Scenario s = MakeScenario(1.03);
+  const Camera &front = s.rig.cameras[0], &rear = s.rig.cameras[1];
+  const double mutual =
+      std::min(ViewOverlap(front, rear, kViewOverlapDepthM), ViewOverlap(rear, front, kViewOverlapDepthM));
+  ASSERT_GT(mutual, 0.2);  // 3 m apart, both looking right: much of one view at 10 m
+  ASSERT_LT(mutual, 0.9);
+  const size_t all = FindCrossCameraLinks(s.rig, s.keyframes, Options(), 2).size();
+  ASSERT_GT(all, 0u);
+  CrossCameraLinkOptions below = Options();
+  below.max_pair_overlap = mutual - 0.05;
+  EXPECT_TRUE(FindCrossCameraLinks(s.rig, s.keyframes, below, 2).empty());
+  CrossCameraLinkOptions above = Options();
+  above.max_pair_overlap = mutual + 0.05;
+  EXPECT_EQ(FindCrossCameraLinks(s.rig, s.keyframes, above, 2).size(), all);
+}
+
 TEST(CrossCameraLinksTest, OptionsAreChecked) {
   CrossCameraLinkOptions o = Options();
   o.max_scale_error = -0.1;
@@ -214,6 +232,9 @@ TEST(CrossCameraLinksTest, OptionsAreChecked) {
   EXPECT_THROW(o.Check(), InputError);
   o = Options();
   o.window_keyframes = -1;
+  EXPECT_THROW(o.Check(), InputError);
+  o = Options();
+  o.max_pair_overlap = 1.5;
   EXPECT_THROW(o.Check(), InputError);
 }
 

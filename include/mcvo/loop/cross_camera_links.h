@@ -73,6 +73,13 @@ struct CrossCameraLinkOptions {
   // computed for points 10 m away, and indoors such pairs (irregular5's)
   // see little of the same wall 1-3 m away; the links are their only tie.
   bool overlapping_pairs = true;
+  // Camera pairs that look the same way: a pair each of whose cameras sees
+  // more than this share of the other's view (dataset/overlap.h, points
+  // 10 m away, no masks) is not linked. Such a pair observes its scale
+  // through its baseline at every frame, and across time its search path
+  // runs along the epipolar line, where a repeated texture gives wrong
+  // links. 1: every pair may be linked.
+  double max_pair_overlap = 1.0;
   // Throws InputError naming the field ("/loop/cross_camera/...").
   void Check() const;
 };
