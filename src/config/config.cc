@@ -269,6 +269,7 @@ void Visit(V& v, GlobalBaOptions* o) {
   v.Field("straight_max_rotation_deg", &o->straight_max_rotation_deg);
   v.Field("straight_window_keyframes", &o->straight_window_keyframes);
   v.Field("straight_overlap_min_landmarks", &o->straight_overlap_min_landmarks);
+  v.Field("cross_camera_link_sigma_px", &o->cross_camera_link_sigma_px);
   v.Field("refine_extrinsics", &o->refine_extrinsics);
   v.Field("extrinsic_rotation_sigma_deg", &o->extrinsic_rotation_sigma_deg);
   v.Field("extrinsic_translation_sigma_m", &o->extrinsic_translation_sigma_m);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 #include <vector>
 
 #include "mcvo/loop/pose_graph.h"
@@ -106,6 +107,37 @@ std::vector<LoopLandmarkMatch> CrossCameraMatches(const LoopOutcome* loops, cons
   return matches;
 }
 
+// The cross-camera links across time as ties (refine.cross_camera_link_sigma_px
+// > 0): both landmarks kept, the sigma at the linked camera's distance to
+// the linked landmark. Links naming a landmark the map lacks (merged by a
+// loop) are left out; a pair is tied once.
+std::vector<GlobalBaLandmarkTie> CrossCameraTies(const Rig& rig, const LoopOutcome* loops, const SparseMap& map,
+                                                 const GlobalBaOptions& options) {
+  std::vector<GlobalBaLandmarkTie> ties;
+  if (loops == nullptr) return ties;
+  const std::map<int, int> keyframe_of_frame = KeyframeOfFrame(map);
+  std::map<int64_t, const MapLandmark*> landmark_of_id;
+  for (const MapLandmark& l : map.landmarks) landmark_of_id.emplace(l.id, &l);
+  std::set<std::pair<int64_t, int64_t>> tied;
+  for (const CrossCameraLink& link : loops->cross_camera_links) {
+    const auto at = keyframe_of_frame.find(link.frame_index);
+    const auto a = landmark_of_id.find(link.source_landmark_id), b = landmark_of_id.find(link.landmark_id);
+    if (at == keyframe_of_frame.end() || a == landmark_of_id.end() || b == landmark_of_id.end()) continue;
+    if (link.camera < 0 || link.camera >= rig.NumCameras()) continue;
+    if (!tied.insert(std::minmax(link.landmark_id, link.source_landmark_id)).second) continue;
+    const Rigid3d world_from_cam = map.keyframes[static_cast<size_t>(at->second)].world_from_rig *
+                                   rig.cameras[static_cast<size_t>(link.camera)].cam_from_rig.Inverse();
+    const double distance = (b->second->position_world - world_from_cam.translation).norm();
+    if (!(distance > 0.0) || !std::isfinite(distance)) continue;
+    GlobalBaLandmarkTie tie;
+    tie.landmark_a = link.source_landmark_id;
+    tie.landmark_b = link.landmark_id;
+    tie.sigma_m = distance * options.cross_camera_link_sigma_px / options.virtual_focal_px;
+    ties.push_back(tie);
+  }
+  return ties;
+}
+
 }  // namespace
 
 RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, const LoopOutcome* loops,
@@ -119,6 +151,7 @@ RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, con
     return outcome;
   }
   SparseMap fused = *map;
+  std::vector<GlobalBaLandmarkTie> ties;
   if (options.fuse_loop_landmarks) {
     outcome.fusion = FuseLoopLandmarks(LoopMatches(loops, *map), &fused);
     const LandmarkFusionResult& f = outcome.fusion;
@@ -127,14 +160,22 @@ RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, con
                " observations added, ", f.merges_rejected, " merges rejected as ambiguous");
     }
     // After the loops' merges: a link naming a landmark merged there is ignored.
-    outcome.cross_camera_fusion = FuseLoopLandmarks(CrossCameraMatches(loops, fused), &fused);
+    if (options.cross_camera_link_sigma_px > 0.0) {
+      ties = CrossCameraTies(rig, loops, fused, options);
+    } else {
+      outcome.cross_camera_fusion = FuseLoopLandmarks(CrossCameraMatches(loops, fused), &fused);
+    }
     const LandmarkFusionResult& x = outcome.cross_camera_fusion;
     if (x.landmarks_merged + x.merges_rejected > 0) {
       MCVO_LOG(kInfo, "run: cross-camera landmarks fused: ", x.landmarks_merged, " merged, ", x.merges_rejected,
                " merges rejected as ambiguous, ", x.matches_ignored, " links ignored");
     }
   }
-  outcome.ba = RunGlobalBundleAdjustment(rig, fused, scale_free, options, LoopConstraints(loops, pose_graph, fused));
+  outcome.ba =
+      RunGlobalBundleAdjustment(rig, fused, scale_free, options, LoopConstraints(loops, pose_graph, fused), ties);
+  if (!ties.empty()) {
+    MCVO_LOG(kInfo, "run: cross-camera links tied: ", outcome.ba.ties_used, " of ", ties.size(), " in the last solve");
+  }
   const GlobalBaResult& ba = outcome.ba;
   if (!ba.ran) {
     MCVO_LOG(kInfo, "run: global bundle adjustment not run: ", ba.message);

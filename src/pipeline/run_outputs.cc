@@ -303,6 +303,7 @@ Json GlobalBaJson(const RunOutputsInput& in, const RunSummary& summary, const Ev
   json["loop_merges_rejected"] = refine.fusion.merges_rejected;
   json["cross_camera_landmarks_merged"] = refine.cross_camera_fusion.landmarks_merged;
   json["cross_camera_merges_rejected"] = refine.cross_camera_fusion.merges_rejected;
+  json["cross_camera_ties"] = refine.ba.ties_used;
   json["landmarks"] = ba.landmarks_refined;
   json["observations"] = ba.observations_used;
   json["observations_removed"] = ba.observations_removed;

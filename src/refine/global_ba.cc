@@ -8,7 +8,9 @@
 #include <memory>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <set>
+#include <utility>
 
 #include <ceres/ceres.h>
 #include <Eigen/Geometry>
@@ -111,6 +113,20 @@ class ExtrinsicPriorCost {
   double rotation_weight_, translation_weight_;
 };
 
+// global_ba.h GlobalBaLandmarkTie: (a - b) / sigma.
+class LandmarkTieCost {
+ public:
+  explicit LandmarkTieCost(double sigma_m) : inverse_sigma_(1.0 / sigma_m) {}
+  template <typename T>
+  bool operator()(const T* a, const T* b, T* residual) const {
+    for (int i = 0; i < 3; ++i) residual[i] = (a[i] - b[i]) * inverse_sigma_;
+    return true;
+  }
+
+ private:
+  double inverse_sigma_;
+};
+
 struct Observation {
   int keyframe = 0;
   int index = 0;     // in the keyframe's observations
@@ -134,10 +150,11 @@ int FindRoot(std::vector<int>* parent, int i) {
 class GlobalProblem {
  public:
   GlobalProblem(const Rig& rig, const SparseMap& map, bool scale_free, const GlobalBaOptions& options,
-                const std::vector<GlobalBaPoseConstraint>& constraints)
+                const std::vector<GlobalBaPoseConstraint>& constraints, const std::vector<GlobalBaLandmarkTie>& ties)
       : options_(options),
         loss_scale_(options.loss_scale),
         constraints_(constraints),
+        ties_(ties),
         scale_free_(scale_free),
         cam_from_rig_(rig.CamFromRig()),
         sqrt_information_(options.virtual_focal_px / options.reprojection_sigma_px),
@@ -241,13 +258,21 @@ class GlobalProblem {
           constraint_losses.back().get(), poses_[static_cast<size_t>(c.from)].data(),
           poses_[static_cast<size_t>(c.to)].data());
     }
+    AddLandmarkTies(&problem);
     *components = FixGauge(&problem);
     AddStraightScaleHold(&problem);
 
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    // Schur elimination needs the eliminated points independent: one point
+    // of each tie joins the poses' group.
+    std::vector<bool> eliminated(points_.size(), true);
+    for (const GlobalBaLandmarkTie& tie : ties_) {
+      const auto pair = TieUsable(tie);
+      if (pair && eliminated[static_cast<size_t>(pair->first)]) eliminated[static_cast<size_t>(pair->second)] = false;
+    }
     for (size_t i = 0; i < points_.size(); ++i) {
       if (landmark_used_[i] && problem.HasParameterBlock(points_[i].data())) {
-        ordering->AddElementToGroup(points_[i].data(), 0);
+        ordering->AddElementToGroup(points_[i].data(), eliminated[i] ? 0 : 1);
       }
     }
     for (size_t k = 0; k < poses_.size(); ++k) {
@@ -378,6 +403,7 @@ class GlobalProblem {
   }
 
   int straight_scale_residuals() const { return straight_scale_residuals_; }
+  int ties_used() const { return ties_used_; }
 
  private:
   // global_ba.h "Scale on straights", over the used keyframes in order.
@@ -438,6 +464,31 @@ class GlobalProblem {
     }
   }
 
+  // Index pair of a tie whose landmarks are both in the problem, distinct.
+  std::optional<std::pair<int, int>> TieUsable(const GlobalBaLandmarkTie& tie) const {
+    const auto a = landmark_index_.find(tie.landmark_a), b = landmark_index_.find(tie.landmark_b);
+    if (a == landmark_index_.end() || b == landmark_index_.end() || a->second == b->second) return std::nullopt;
+    if (!landmark_used_[static_cast<size_t>(a->second)] || !landmark_used_[static_cast<size_t>(b->second)]) {
+      return std::nullopt;
+    }
+    return std::make_pair(a->second, b->second);
+  }
+
+  void AddLandmarkTies(ceres::Problem* problem) {
+    ties_used_ = 0;
+    tie_losses_.clear();
+    for (const GlobalBaLandmarkTie& tie : ties_) {
+      const auto pair = TieUsable(tie);
+      if (!pair) continue;
+      tie_losses_.push_back(std::make_unique<ceres::CauchyLoss>(tie.loss_scale));
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<LandmarkTieCost, 3, 3, 3>(
+                                    new LandmarkTieCost(tie.sigma_m)),
+                                tie_losses_.back().get(), points_[static_cast<size_t>(pair->first)].data(),
+                                points_[static_cast<size_t>(pair->second)].data());
+      ++ties_used_;
+    }
+  }
+
   // Both keyframes in the problem, distinct.
   bool ConstraintUsable(const GlobalBaPoseConstraint& c) const {
     const int n = static_cast<int>(poses_.size());
@@ -465,6 +516,15 @@ class GlobalProblem {
     for (const GlobalBaPoseConstraint& c : constraints_) {
       if (!ConstraintUsable(c)) continue;
       const int a = FindRoot(&parent, c.from), b = FindRoot(&parent, c.to);
+      if (a != b) parent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
+    }
+    for (const GlobalBaLandmarkTie& tie : ties_) {
+      const auto pair = TieUsable(tie);
+      if (!pair) continue;
+      const int fa = first_observer[static_cast<size_t>(pair->first)];
+      const int fb = first_observer[static_cast<size_t>(pair->second)];
+      if (fa < 0 || fb < 0) continue;
+      const int a = FindRoot(&parent, fa), b = FindRoot(&parent, fb);
       if (a != b) parent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
     }
     std::map<int, int> last_of_component;
@@ -497,6 +557,9 @@ class GlobalProblem {
   const GlobalBaOptions& options_;
   double loss_scale_;  // of the next solve, in units of reprojection_sigma_px ("Robust loss")
   const std::vector<GlobalBaPoseConstraint>& constraints_;
+  const std::vector<GlobalBaLandmarkTie>& ties_;
+  std::vector<std::unique_ptr<ceres::LossFunction>> tie_losses_;  // of the current solve's ties
+  int ties_used_ = 0;
   const bool scale_free_;
   const std::vector<Rigid3d> cam_from_rig_;
   const double sqrt_information_;
@@ -532,14 +595,19 @@ void GlobalBaOptions::Check() const {
   CheckAtLeast("/refine/straight_overlap_min_landmarks", straight_overlap_min_landmarks, 0);
   CheckPositive("/refine/extrinsic_rotation_sigma_deg", extrinsic_rotation_sigma_deg);
   CheckPositive("/refine/extrinsic_translation_sigma_m", extrinsic_translation_sigma_m);
+  CheckAtLeast("/refine/cross_camera_link_sigma_px", cross_camera_link_sigma_px, 0.0);
 }
 
 GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, bool scale_free,
                                          const GlobalBaOptions& options,
-                                         const std::vector<GlobalBaPoseConstraint>& constraints) {
+                                         const std::vector<GlobalBaPoseConstraint>& constraints,
+                                         const std::vector<GlobalBaLandmarkTie>& ties) {
   for (const GlobalBaPoseConstraint& c : constraints) {
     MCVO_CHECK_MSG(c.rotation_sigma_rad > 0.0 && c.translation_sigma_m > 0.0 && c.loss_scale > 0.0,
                    "pose constraint sigmas and loss scale must be > 0");
+  }
+  for (const GlobalBaLandmarkTie& tie : ties) {
+    MCVO_CHECK_MSG(tie.sigma_m > 0.0 && tie.loss_scale > 0.0, "landmark tie sigma and loss scale must be > 0");
   }
   const auto start = std::chrono::steady_clock::now();
   GlobalBaResult result;
@@ -549,7 +617,7 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
   result.extrinsic_rotation_change_deg.assign(result.cam_from_rig.size(), 0.0);
   result.extrinsic_translation_change_m.assign(result.cam_from_rig.size(), 0.0);
 
-  GlobalProblem problem(rig, map, scale_free, options, constraints);
+  GlobalProblem problem(rig, map, scale_free, options, constraints, ties);
   if (!problem.SelectActive()) {
     result.message = "no landmark is observed twice";
     return result;
@@ -571,6 +639,7 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
     result.iterations += static_cast<int>(summary.iterations.size()) - 1;
     result.message = summary.message;
     result.straight_scale_residuals = problem.straight_scale_residuals();
+    result.ties_used = problem.ties_used();
     ++result.solves;
     if (round == options.outlier_rounds) break;
     const int removed = problem.RemoveOutliers();

@@ -44,8 +44,8 @@ void RunSeed11Case(const std::string& synth_args, const std::string& name) {
   ASSERT_FALSE(seq.empty()) << error;
   const fs::path out = Root() / name;
   const std::string config = Quote(std::string(MCVO_SOURCE_DIR) + "/config/kitti360_3cam.json");
-  const auto r =
-      RunMcvo("run --dataset " + Quote(seq.string()) + " --config " + config + " --out " + Quote(out.string()));
+  const auto r = RunMcvo("run --dataset " + Quote(seq.string()) + " --config " + config + " --out " +
+                         Quote(out.string()));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json run = nlohmann::json::parse(mcvo::ReadFileToString(out / "run.json"));
   const nlohmann::json& result = run["result"];

@@ -164,6 +164,11 @@ struct GlobalBaOptions {
   // Before the BA, fuse the landmarks that accepted loops saw again
   // (refine/landmark_fusion.h); used by `mcvo run`'s refinement stage.
   bool fuse_loop_landmarks = true;
+  // The cross-camera links across time (loop/cross_camera_links.h), fused
+  // with the loops' landmarks: 0 merges each link's two landmarks into one;
+  // > 0 keeps both and ties them (GlobalBaLandmarkTie) with a sigma of this
+  // many px at virtual_focal_px at the linked camera's distance to the point.
+  double cross_camera_link_sigma_px = 0.0;
   // "Extrinsics" above: refine every camera's cam_from_rig with a prior of
   // these sigmas around the calibration.
   bool refine_extrinsics = false;
@@ -185,6 +190,19 @@ struct GlobalBaPoseConstraint {
   double loss_scale = 3.0;             // Cauchy scale on the whitened residual's norm, in sigmas
 };
 
+// Two landmarks that are one point up to the matching error of the pixels
+// that found them (a cross-camera link across time, loop/
+// cross_camera_links.h), kept as two points tied by a residual
+// (a - b) / sigma_m under a Cauchy loss of loss_scale sigmas, instead of
+// merged into one: a merge makes every observation of both tracks carry
+// the two detections' offset.
+struct GlobalBaLandmarkTie {
+  int64_t landmark_a = 0;
+  int64_t landmark_b = 0;
+  double sigma_m = 0.0;     // > 0
+  double loss_scale = 3.0;  // > 0, in sigmas
+};
+
 struct GlobalBaResult {
   bool ran = false;     // false: nothing to refine (no landmark seen twice)
   std::string message;  // why it did not run, or Ceres' final message
@@ -198,6 +216,7 @@ struct GlobalBaResult {
   int components = 0;            // gauge components (one fixed keyframe each)
   int constraints_used = 0;      // pose constraints in the last solve
   int straight_scale_residuals = 0;  // straight-road scale hold residuals in the last solve
+  int ties_used = 0;                 // landmark ties in the last solve (both landmarks refined)
   int landmarks_refined = 0;     // in the last solve
   int observations_used = 0;     // in the last solve
   int observations_removed = 0;  // as outliers or behind the camera, over all rounds
@@ -224,6 +243,7 @@ struct GlobalBaResult {
 // the same output bit for bit.
 GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, bool scale_free,
                                          const GlobalBaOptions& options,
-                                         const std::vector<GlobalBaPoseConstraint>& constraints = {});
+                                         const std::vector<GlobalBaPoseConstraint>& constraints = {},
+                                         const std::vector<GlobalBaLandmarkTie>& ties = {});
 
 }  // namespace mcvo
