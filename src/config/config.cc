@@ -73,6 +73,8 @@ void Visit(V& v, CrossCameraOptions* o) {
   v.Field("epipolar_threshold_px", &o->epipolar_threshold_px);
   v.Field("min_angle_deg", &o->min_angle_deg);
   v.Field("max_matches_per_pair", &o->max_matches_per_pair);
+  v.Field("rematch_every", &o->rematch_every);
+  v.Field("rematch_below_fraction", &o->rematch_below_fraction);
 }
 
 template <typename V>

@@ -91,6 +91,9 @@ struct CameraTracker::Impl {
   // With CLAHE on and cross_camera.equalised off: the pyramid of the
   // unequalised image, for cross-camera matching (CrossCameraPyramid()).
   std::vector<cv::Mat> prev_raw_pyramid;
+  // With cross_camera.rematch_every > 1: the cross-camera pyramid of the
+  // frame before (PreviousCrossCameraPyramid()).
+  std::vector<cv::Mat> older_cross_pyramid;
   std::vector<TrackedFeature> prev_features;
   cv::Mat prev_descriptors;
   // With options.anchor.enabled: one per prev_features entry (the patch of
@@ -186,6 +189,7 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
     stats.image_missing = true;
     prev_pyramid.clear();
     prev_raw_pyramid.clear();
+    older_cross_pyramid.clear();
     prev_features.clear();
     prev_descriptors = cv::Mat();
     prev_anchors.clear();
@@ -259,6 +263,9 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
     stats.mean_track_length = length_sum / static_cast<double>(result.features.size());
   stats.sfd = ComputeSfd(pixels, camera.width, camera.height);
 
+  if (options.cross_camera.enabled && options.cross_camera.rematch_every > 1) {
+    older_cross_pyramid = prev_raw_pyramid.empty() ? std::move(prev_pyramid) : std::move(prev_raw_pyramid);
+  }
   prev_pyramid = std::move(pyramid);
   prev_raw_pyramid = std::move(raw_pyramid);
   prev_features = result.features;
@@ -550,6 +557,10 @@ const std::vector<cv::Mat>& CameraTracker::Pyramid() const { return impl_->prev_
 
 const std::vector<cv::Mat>& CameraTracker::CrossCameraPyramid() const {
   return impl_->prev_raw_pyramid.empty() ? impl_->prev_pyramid : impl_->prev_raw_pyramid;
+}
+
+const std::vector<cv::Mat>& CameraTracker::PreviousCrossCameraPyramid() const {
+  return impl_->older_cross_pyramid;
 }
 
 int CameraTracker::DescriptorSize() const { return impl_->detector->DescriptorSize(); }

@@ -398,4 +398,100 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
   return finish();
 }
 
+std::vector<CrossCameraMatch> CrossCameraMatcher::Follow(const std::vector<TrackedFeature>& features_a,
+                                                         const std::vector<CrossCameraMatch>& previous,
+                                                         const std::vector<cv::Mat>& previous_pyramid_b,
+                                                         const std::vector<cv::Mat>& pyramid_b,
+                                                         CrossCameraPairStats* stats) const {
+  MCVO_CHECK(stats != nullptr);
+  const Clock::time_point start = Clock::now();
+  *stats = CrossCameraPairStats();
+  stats->camera_a = camera_a_;
+  stats->camera_b = camera_b_;
+  std::vector<CrossCameraMatch> matches;
+  auto finish = [&]() {
+    stats->matches = static_cast<int>(matches.size());
+    stats->seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    return matches;
+  };
+  if (previous_pyramid_b.empty() || pyramid_b.empty() || previous.empty()) return finish();
+  // a's features still tracked whose id was matched in the frame before
+  // (previous is sorted by id_a; features_a is in the tracker's order).
+  std::vector<const TrackedFeature*> feature;
+  std::vector<cv::Point2f> pts_prev;
+  for (const TrackedFeature& f : features_a) {
+    const auto it = std::lower_bound(previous.begin(), previous.end(), f.id,
+                                     [](const CrossCameraMatch& m, uint64_t id) { return m.id_a < id; });
+    if (it == previous.end() || it->id_a != f.id) continue;
+    MCVO_CHECK(it->camera_a == camera_a_ && it->camera_b == camera_b_);
+    feature.push_back(&f);
+    pts_prev.emplace_back(it->pixel_b.x(), it->pixel_b.y());
+  }
+  stats->features = static_cast<int>(feature.size());
+  if (feature.empty()) return finish();
+
+  const cv::Size window(options_.lk.window_px, options_.lk.window_px);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, options_.lk.max_iterations,
+                                  0.001);
+  std::vector<cv::Point2f> pts = pts_prev, back;
+  std::vector<uint8_t> status, back_status;
+  std::vector<float> error;
+  cv::calcOpticalFlowPyrLK(previous_pyramid_b, pyramid_b, pts_prev, pts, status, error, window,
+                           options_.lk.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  back = pts;
+  cv::calcOpticalFlowPyrLK(pyramid_b, previous_pyramid_b, pts, back, back_status, error, window,
+                           options_.lk.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  const double fb2 = options_.lk.forward_backward_threshold_px * options_.lk.forward_backward_threshold_px;
+  std::vector<std::pair<const TrackedFeature*, Eigen::Vector2f>> accepted;
+  for (size_t k = 0; k < feature.size(); ++k) {
+    const std::optional<Eigen::Vector3d> bearing_b =
+        status[k] && UsableInB(pts[k])
+            ? b_.Unproject(Eigen::Vector2d(static_cast<double>(pts[k].x), static_cast<double>(pts[k].y)))
+            : std::nullopt;
+    if (!bearing_b) {
+      ++stats->lost_lk;
+      continue;
+    }
+    const cv::Point2f d = back[k] - pts_prev[k];
+    if (!back_status[k] || static_cast<double>(d.dot(d)) > fb2) {
+      ++stats->lost_forward_backward;
+      continue;
+    }
+    const std::optional<Eigen::Vector3d> bearing_a = a_.Unproject(feature[k]->pixel.cast<double>());
+    if (!bearing_a) {
+      ++stats->lost_lk;
+      continue;
+    }
+    switch (CheckCrossCameraBearings(*bearing_a, *bearing_b, b_from_a_, max_epipolar_sine_, min_angle_rad_)) {
+      case CrossCameraCheck::kEpipolar:
+        ++stats->lost_epipolar;
+        continue;
+      case CrossCameraCheck::kTriangulation:
+        ++stats->lost_triangulation;
+        continue;
+      case CrossCameraCheck::kOk:
+        break;
+    }
+    accepted.emplace_back(feature[k], Eigen::Vector2f(pts[k].x, pts[k].y));
+  }
+  const int limit = options_.cross_camera.max_matches_per_pair;
+  if (limit > 0 && static_cast<int>(accepted.size()) > limit) {
+    std::stable_sort(accepted.begin(), accepted.end(),
+                     [](const auto& x, const auto& y) { return x.first->track_length > y.first->track_length; });
+    stats->over_limit = static_cast<int>(accepted.size()) - limit;
+    accepted.resize(static_cast<size_t>(limit));
+  }
+  for (const auto& [f, pixel] : accepted) {
+    CrossCameraMatch match;
+    match.camera_a = camera_a_;
+    match.id_a = f->id;
+    match.camera_b = camera_b_;
+    match.pixel_b = pixel;
+    matches.push_back(match);
+  }
+  std::sort(matches.begin(), matches.end(),
+            [](const CrossCameraMatch& x, const CrossCameraMatch& y) { return x.id_a < y.id_a; });
+  return finish();
+}
+
 }  // namespace mcvo

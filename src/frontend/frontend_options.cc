@@ -44,6 +44,8 @@ void FrontendOptions::Check() const {
   CheckPositive("/frontend/cross_camera/epipolar_threshold_px", cross_camera.epipolar_threshold_px);
   CheckInRange("/frontend/cross_camera/min_angle_deg", cross_camera.min_angle_deg, 0.0, 90.0);
   CheckAtLeast("/frontend/cross_camera/max_matches_per_pair", cross_camera.max_matches_per_pair, 0);
+  CheckAtLeast("/frontend/cross_camera/rematch_every", cross_camera.rematch_every, 1);
+  CheckInRange("/frontend/cross_camera/rematch_below_fraction", cross_camera.rematch_below_fraction, 0.0, 1.0);
 }
 
 }  // namespace mcvo

@@ -12,6 +12,11 @@
 // Cross-camera matching runs after the ids are assigned (a match names its
 // feature by id), the same way: pairs on worker threads into pre-sized slots,
 // concatenated in pair order, which is the (camera_a, camera_b) order.
+// With cross_camera.rematch_every > 1 a pair is matched through its warps
+// only every rematch_every-th frame (or when too few matches could be
+// followed); on the frames between, the last matches are followed in b's
+// images (CrossCameraMatcher::Follow). Each pair's state is its own, so
+// pairs stay independent work items.
 #include "mcvo/frontend/multi_camera_tracker.h"
 
 #include <algorithm>
@@ -36,6 +41,13 @@ struct MultiCameraTracker::Impl {
   std::vector<std::unique_ptr<CameraTracker>> trackers;
   std::vector<std::pair<int, int>> pairs;
   std::vector<std::unique_ptr<CrossCameraMatcher>> matchers;  // one per pair
+  // Per pair, for cross_camera.rematch_every > 1: the last frame's matches,
+  // frames since the last full match (0: none yet), its number of matches.
+  std::vector<std::vector<CrossCameraMatch>> last_matches;
+  std::vector<int> frames_since_full;
+  std::vector<int> full_matches;
+  int rematch_every = 1;
+  double rematch_below_fraction = 0.5;
   int threads = 1;
   uint64_t next_id = 1;  // 0 means "not assigned yet"
 };
@@ -63,6 +75,11 @@ MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat
                                                                    rig.cameras[static_cast<size_t>(b)],
                                                                    mask_b, options, impl_->threads));
   }
+  impl_->rematch_every = options.cross_camera.rematch_every;
+  impl_->rematch_below_fraction = options.cross_camera.rematch_below_fraction;
+  impl_->last_matches.resize(impl_->pairs.size());
+  impl_->frames_since_full.assign(impl_->pairs.size(), 0);
+  impl_->full_matches.assign(impl_->pairs.size(), 0);
 }
 
 MultiCameraTracker::~MultiCameraTracker() = default;
@@ -89,8 +106,27 @@ MultiCameraFrame MultiCameraTracker::Track(int frame_index, int64_t t_ns,
     const CrossCameraMatcher& matcher = *impl_->matchers[i];
     const size_t a = static_cast<size_t>(matcher.camera_a());
     const size_t b = static_cast<size_t>(matcher.camera_b());
+    const CameraTracker& tracker_b = *impl_->trackers[b];
+    // Between full frames: follow the last frame's matches; matched in full
+    // all the same when too few survive (a decision on counts only, so the
+    // same at any thread count).
+    int& since_full = impl_->frames_since_full[i];
+    if (since_full > 0 && since_full < impl_->rematch_every && impl_->full_matches[i] > 0) {
+      matches[i] = matcher.Follow(frame.cameras[a].features, impl_->last_matches[i],
+                                  tracker_b.PreviousCrossCameraPyramid(), tracker_b.CrossCameraPyramid(),
+                                  &frame.cross_pair_stats[i]);
+      if (static_cast<double>(matches[i].size()) >=
+          impl_->rematch_below_fraction * static_cast<double>(impl_->full_matches[i])) {
+        ++since_full;
+        if (impl_->rematch_every > 1) impl_->last_matches[i] = matches[i];
+        return;
+      }
+    }
     matches[i] = matcher.Match(frame.cameras[a].features, impl_->trackers[a]->CrossCameraPyramid(),
-                               impl_->trackers[b]->CrossCameraPyramid(), &frame.cross_pair_stats[i]);
+                               tracker_b.CrossCameraPyramid(), &frame.cross_pair_stats[i]);
+    since_full = 1;
+    impl_->full_matches[i] = static_cast<int>(matches[i].size());
+    if (impl_->rematch_every > 1) impl_->last_matches[i] = matches[i];
   });
   for (const std::vector<CrossCameraMatch>& pair_matches : matches) {
     frame.cross_matches.insert(frame.cross_matches.end(), pair_matches.begin(), pair_matches.end());

@@ -152,7 +152,7 @@ RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, con
   }
   SparseMap fused = *map;
   std::vector<GlobalBaLandmarkTie> ties;
-  if (options.fuse_loop_landmarks) {
+  if (RefineFusesLandmarks(options, scale_free)) {
     outcome.fusion = FuseLoopLandmarks(LoopMatches(loops, *map), &fused);
     const LandmarkFusionResult& f = outcome.fusion;
     if (f.landmarks_merged + f.observations_added > 0) {

@@ -23,6 +23,15 @@ struct RefineOutcome {
   OdometryBeforeLoops before;  // poses and keyframes as they were before it
 };
 
+// Whether RefineGlobally fuses landmarks (loops' matches and cross-camera
+// links): the refinement runs (options.enabled, and on a scale-free run
+// options.monocular) with options.fuse_loop_landmarks. The loop stage looks
+// for cross-camera links only then.
+inline bool RefineFusesLandmarks(const GlobalBaOptions& options, bool scale_free) {
+  return options.enabled && options.fuse_loop_landmarks && !(scale_free && !options.monocular);
+}
+
+
 // Runs the global bundle adjustment on `map` (BuildSparseMap of `odometry`;
 // scale_free: the run's scale is arbitrary). When it ran, `map` becomes the
 // refined map and `odometry` follows it: refined keyframes take their new

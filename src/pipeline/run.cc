@@ -286,9 +286,7 @@ RunSummary RunPipeline(const RunRequest& request) {
     // Cross-camera links are used only by the refinement's landmark fusion:
     // where it does not run, they are not looked for (nor described).
     LoopOptions loop_options = options.loop;
-    const bool links_used = options.refine.enabled && options.refine.fuse_loop_landmarks &&
-                            !(summary.scale_arbitrary && !options.refine.monocular);
-    if (!links_used) loop_options.closure.cross_camera.window_keyframes = 0;
+    if (!pipeline_internal::RefineFusesLandmarks(options.refine, summary.scale_arbitrary)) loop_options.closure.cross_camera.window_keyframes = 0;
     loops = pipeline_internal::CloseLoops(posed, odometry.keyframes, *vocabulary, loop_options, threads,
                                           sample_colors, matched_pairs);
     MCVO_LOG(kInfo, "run: loop closure: ", odometry.keyframes.size(), " keyframes, ", loops.verified,

@@ -90,8 +90,15 @@ const RigSequence& ThreeCam() {
   return *sequence;
 }
 
+// Every frame matched through the warps (the tests of steps 1-6).
+FrontendOptions EveryFrame() {
+  FrontendOptions options;
+  options.cross_camera.rematch_every = 1;
+  return options;
+}
+
 std::vector<MultiCameraFrame> TrackAll(const RigSequence& seq, int threads,
-                                       const FrontendOptions& options = FrontendOptions()) {
+                                       const FrontendOptions& options = EveryFrame()) {
   MultiCameraTracker tracker(seq.rig, seq.masks, options, threads);
   std::vector<MultiCameraFrame> out;
   for (size_t f = 0; f < seq.frames.size(); ++f)
@@ -332,6 +339,8 @@ TEST(CrossCameraTest, OptionChecksNameTheField) {
             "/frontend/cross_camera/min_angle_deg: must be in [0, 90], got 91");
   EXPECT_EQ(error([](CrossCameraOptions* o) { o->max_matches_per_pair = -1; }),
             "/frontend/cross_camera/max_matches_per_pair: must be >= 0, got -1");
+  EXPECT_EQ(error([](CrossCameraOptions* o) { o->rematch_every = 0; }),
+            "/frontend/cross_camera/rematch_every: must be >= 1, got 0");
 }
 
 TEST(CrossCameraTest, BearingChecks) {
@@ -405,7 +414,7 @@ TEST(CrossCameraTest, SameMatchesWithOneAndTwoThreads) {
 }
 
 TEST(CrossCameraTest, LimitKeepsTheLongestTracks) {
-  FrontendOptions options;
+  FrontendOptions options = EveryFrame();
   options.cross_camera.max_matches_per_pair = 10;
   const std::vector<MultiCameraFrame> limited = TrackAll(Stereo(), 1, options);
   const std::vector<MultiCameraFrame> all = TrackAll(Stereo(), 1);
@@ -428,6 +437,81 @@ TEST(CrossCameraTest, LimitKeepsTheLongestTracks) {
   const std::vector<MultiCameraFrame> off = TrackAll(Stereo(), 1, options);
   EXPECT_TRUE(off.back().cross_matches.empty());
   EXPECT_TRUE(off.back().cross_pair_stats.empty());
+}
+
+// rematch_every 3 on the stereo pair: frame 0 and 3 matched through the
+// warps, frames 1 and 2 follow the matches of the frame before in b's images.
+TEST(CrossCameraTest, FollowedMatchesBetweenFullFramesStayAccurate) {
+  const RigSequence& seq = Stereo();
+  FrontendOptions options;
+  options.cross_camera.rematch_every = 3;
+  const std::vector<MultiCameraFrame> frames = TrackAll(seq, 2, options);
+  const std::vector<MultiCameraFrame> every = TrackAll(seq, 2);
+  ASSERT_EQ(frames.size(), 4u);
+  for (size_t f = 0; f < frames.size(); ++f) {
+    const CrossCameraPairStats& s = frames[f].cross_pair_stats.at(0);
+    EXPECT_EQ(s.features, s.outside_view + s.lost_lk + s.lost_forward_backward + s.lost_epipolar +
+                              s.lost_triangulation + s.over_limit + s.matches);
+    std::map<uint64_t, int> in_a;
+    for (const TrackedFeature& feature : frames[f].cameras[0].features) in_a[feature.id] = 1;
+    if (f == 0 || f == 3) {  // full frames: every feature of a searched, as without rematch_every
+      EXPECT_EQ(s.features, static_cast<int>(frames[f].cameras[0].features.size())) << "frame " << f;
+      continue;
+    }
+    // Followed: only a's features still tracked that were matched in the
+    // frame before, and most of them survive.
+    std::map<uint64_t, int> before;
+    for (const CrossCameraMatch& m : frames[f - 1].cross_matches) before[m.id_a] = 1;
+    int still_tracked = 0;
+    for (const auto& [id, one] : before) still_tracked += in_a.count(id) ? one : 0;
+    EXPECT_EQ(s.features, still_tracked) << "frame " << f;
+    EXPECT_GE(s.matches, still_tracked * 9 / 10) << "frame " << f;
+    for (const CrossCameraMatch& m : frames[f].cross_matches) EXPECT_EQ(before.count(m.id_a), 1u);
+    for (size_t i = 1; i < frames[f].cross_matches.size(); ++i) {
+      EXPECT_LT(frames[f].cross_matches[i - 1].id_a, frames[f].cross_matches[i].id_a);
+    }
+  }
+  // Fewer matches (new features wait for frame 3), as accurate as matching every frame.
+  const PairScore followed = Score(seq, frames, 0, 1);
+  const PairScore full = Score(seq, every, 0, 1);
+  EXPECT_LT(followed.matches, full.matches);
+  EXPECT_GT(followed.matches, full.matches * 7 / 10);
+  EXPECT_GT(followed.scored, followed.matches * 8 / 10);
+  EXPECT_LT(followed.median_error_px, 0.5);
+  EXPECT_LE(followed.over_2px, followed.scored / 50);
+  // The same at one thread, bit for bit.
+  ExpectSameMatches(TrackAll(seq, 1, options), frames);
+}
+
+// A frame after b's image was missing has nothing to follow from: it is
+// matched in full; so is a frame where too few matches survive.
+TEST(CrossCameraTest, FollowingFallsBackToFullMatching) {
+  const RigSequence& seq = Stereo();
+  FrontendOptions options;
+  options.cross_camera.rematch_every = 4;
+  MultiCameraTracker tracker(seq.rig, seq.masks, options, 2);
+  const MultiCameraFrame first = tracker.Track(0, seq.times[0], seq.frames[0]);
+  ASSERT_GT(first.cross_matches.size(), 20u);
+  std::vector<cv::Mat> images = seq.frames[1];
+  images[1] = cv::Mat();
+  const MultiCameraFrame missing = tracker.Track(1, seq.times[1], images);
+  EXPECT_TRUE(missing.cross_matches.empty());
+  const MultiCameraFrame after = tracker.Track(2, seq.times[2], seq.frames[2]);
+  EXPECT_EQ(after.cross_pair_stats.at(0).features, static_cast<int>(after.cameras[0].features.size()));
+  EXPECT_GT(after.cross_matches.size(), after.cameras[0].features.size() / 2);
+
+  // rematch_below_fraction 1: a frame between is kept only if every match survived.
+  options.cross_camera.rematch_below_fraction = 1.0;
+  const std::vector<MultiCameraFrame> strict = TrackAll(seq, 1, options);
+  int last_full = static_cast<int>(strict[0].cross_matches.size());
+  for (size_t f = 1; f < strict.size(); ++f) {
+    const CrossCameraPairStats& s = strict[f].cross_pair_stats.at(0);
+    if (s.features == static_cast<int>(strict[f].cameras[0].features.size())) {
+      last_full = s.matches;
+    } else {
+      EXPECT_GE(s.matches, last_full) << "frame " << f;
+    }
+  }
 }
 
 TEST(CrossCameraTest, TrackFileRoundTrip) {

@@ -74,6 +74,10 @@ class CameraTracker {
   // The pyramid cross-camera matching reads: Pyramid(), or that of the
   // unequalised image where CLAHE is on and cross_camera.equalised off.
   const std::vector<cv::Mat>& CrossCameraPyramid() const;
+  // CrossCameraPyramid() of the Track() before the last one: kept only with
+  // cross_camera.rematch_every > 1 (matches are followed from it); empty
+  // otherwise, on the first frame and after a missing image.
+  const std::vector<cv::Mat>& PreviousCrossCameraPyramid() const;
   // The detector's descriptor layout (Detector::DescriptorSize / DescriptorType).
   int DescriptorSize() const;
   int DescriptorType() const;

@@ -63,6 +63,15 @@
 //     time; and, of two matches, keeping the far warp's or none where they
 //     differ: multicam6 indoor 0.069 -> 0.079 % ATE and a tracking loss in a
 //     7 deg/frame turn of irregular5 indoor.)
+//  7. With rematch_every = K > 1, steps 1-6 (two remaps and pyramids of
+//     b's whole image per pair: the frontend's largest cost at full
+//     resolution) run on every K-th frame of a pair; on the frames between,
+//     Follow() carries the frame before's matches: b's pixel is tracked in
+//     b's own images by LK (forward-backward checked) and must pass steps 4
+//     and 5 against a's current pixel. A feature of a new since the last
+//     full frame waits for the next one. When fewer than
+//     rematch_below_fraction of the last full frame's matches survive (a
+//     fast turn, an occlusion), the frame is matched in full instead.
 // Steps 4-5 cannot see an error along the epipolar curve: a feature on a
 // depth edge (its window mixes a foreground and a background disparity) or
 // on texture repeated along the curve can pass them. Against the ray-cast
@@ -122,6 +131,21 @@ class CrossCameraMatcher {
                                       const std::vector<cv::Mat>& pyramid_a,
                                       const std::vector<cv::Mat>& pyramid_b,
                                       CrossCameraPairStats* stats) const;
+
+  // The frames between full matches (cross_camera.rematch_every > 1):
+  // `previous` (this pair's matches of the frame before, sorted by id_a)
+  // followed into the current frame. A match is kept when a's feature is
+  // still tracked and its b pixel, LK from previous_pyramid_b to pyramid_b
+  // (b's CrossCameraPyramid() of both frames) with the forward-backward
+  // check, is inside b's image and mask and passes steps 4 and 5 against
+  // a's current pixel. *stats counts over the followed matches (`features`:
+  // those whose a feature is still tracked; failures under lost_lk,
+  // lost_forward_backward, lost_epipolar, lost_triangulation). Returns the
+  // matches sorted by id_a. Deterministic.
+  std::vector<CrossCameraMatch> Follow(const std::vector<TrackedFeature>& features_a,
+                                       const std::vector<CrossCameraMatch>& previous,
+                                       const std::vector<cv::Mat>& previous_pyramid_b,
+                                       const std::vector<cv::Mat>& pyramid_b, CrossCameraPairStats* stats) const;
 
   int camera_a() const { return camera_a_; }
   int camera_b() const { return camera_b_; }

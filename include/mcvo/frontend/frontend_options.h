@@ -131,6 +131,17 @@ struct CrossCameraOptions {
   double min_angle_deg = 0.25;
   // At most this many matches per pair, longest tracks first; 0: no limit.
   int max_matches_per_pair = 0;
+  // Match through the warps (steps 1-6 of cross_camera.h: a remap and a
+  // pyramid of b's whole image per warp, the frontend's largest cost) on
+  // every rematch_every-th frame of a pair; on the frames between, the
+  // previous frame's matches are followed in b's own images (LK, forward-
+  // backward, then steps 4-5 against a's feature), and a's features matched
+  // for the first time wait for the next full frame. 1: every frame.
+  int rematch_every = 1;
+  // A frame between is matched in full all the same when fewer matches than
+  // this fraction of the last full frame's survive being followed (fast
+  // turns, occlusions).
+  double rematch_below_fraction = 0.5;
 };
 
 struct FrontendOptions {
