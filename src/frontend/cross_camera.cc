@@ -352,7 +352,7 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
       pixel_b[k] = near_pixel_b[k];
     }
   }
-  std::vector<std::pair<int, Eigen::Vector2f>> accepted;  // (position in index, pixel in b)
+  std::vector<Accepted> accepted;
   for (size_t k = 0; k < index.size(); ++k) {
     switch (outcome[k]) {
       case Outcome::kLostLk:
@@ -370,32 +370,35 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
       case Outcome::kOk:
         break;
     }
-    accepted.emplace_back(static_cast<int>(k), pixel_b[k]);
+    accepted.emplace_back(&features_a[static_cast<size_t>(index[k])], pixel_b[k]);
   }
+  matches = ToMatches(std::move(accepted), stats);
+  return finish();
+}
 
+std::vector<CrossCameraMatch> CrossCameraMatcher::ToMatches(std::vector<Accepted> accepted,
+                                                            CrossCameraPairStats* stats) const {
   // Limit: longest tracks first (ties: a's feature order), then by id.
   const int limit = options_.cross_camera.max_matches_per_pair;
-  const auto feature = [&](const std::pair<int, Eigen::Vector2f>& x) -> const TrackedFeature& {
-    return features_a[static_cast<size_t>(index[static_cast<size_t>(x.first)])];
-  };
   if (limit > 0 && static_cast<int>(accepted.size()) > limit) {
-    std::stable_sort(accepted.begin(), accepted.end(), [&](const auto& x, const auto& y) {
-      return feature(x).track_length > feature(y).track_length;
+    std::stable_sort(accepted.begin(), accepted.end(), [](const Accepted& x, const Accepted& y) {
+      return x.first->track_length > y.first->track_length;
     });
     stats->over_limit = static_cast<int>(accepted.size()) - limit;
     accepted.resize(static_cast<size_t>(limit));
   }
-  for (const auto& x : accepted) {
+  std::vector<CrossCameraMatch> matches;
+  for (const auto& [feature, pixel] : accepted) {
     CrossCameraMatch match;
     match.camera_a = camera_a_;
-    match.id_a = feature(x).id;
+    match.id_a = feature->id;
     match.camera_b = camera_b_;
-    match.pixel_b = x.second;
+    match.pixel_b = pixel;
     matches.push_back(match);
   }
   std::sort(matches.begin(), matches.end(),
             [](const CrossCameraMatch& x, const CrossCameraMatch& y) { return x.id_a < y.id_a; });
-  return finish();
+  return matches;
 }
 
 std::vector<CrossCameraMatch> CrossCameraMatcher::Follow(const std::vector<TrackedFeature>& features_a,
@@ -442,7 +445,7 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Follow(const std::vector<Track
   cv::calcOpticalFlowPyrLK(pyramid_b, previous_pyramid_b, pts, back, back_status, error, window,
                            options_.lk.pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   const double fb2 = options_.lk.forward_backward_threshold_px * options_.lk.forward_backward_threshold_px;
-  std::vector<std::pair<const TrackedFeature*, Eigen::Vector2f>> accepted;
+  std::vector<Accepted> accepted;
   for (size_t k = 0; k < feature.size(); ++k) {
     const std::optional<Eigen::Vector3d> bearing_b =
         status[k] && UsableInB(pts[k])
@@ -474,23 +477,7 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Follow(const std::vector<Track
     }
     accepted.emplace_back(feature[k], Eigen::Vector2f(pts[k].x, pts[k].y));
   }
-  const int limit = options_.cross_camera.max_matches_per_pair;
-  if (limit > 0 && static_cast<int>(accepted.size()) > limit) {
-    std::stable_sort(accepted.begin(), accepted.end(),
-                     [](const auto& x, const auto& y) { return x.first->track_length > y.first->track_length; });
-    stats->over_limit = static_cast<int>(accepted.size()) - limit;
-    accepted.resize(static_cast<size_t>(limit));
-  }
-  for (const auto& [f, pixel] : accepted) {
-    CrossCameraMatch match;
-    match.camera_a = camera_a_;
-    match.id_a = f->id;
-    match.camera_b = camera_b_;
-    match.pixel_b = pixel;
-    matches.push_back(match);
-  }
-  std::sort(matches.begin(), matches.end(),
-            [](const CrossCameraMatch& x, const CrossCameraMatch& y) { return x.id_a < y.id_a; });
+  matches = ToMatches(std::move(accepted), stats);
   return finish();
 }
 

@@ -145,7 +145,8 @@ class CrossCameraMatcher {
   std::vector<CrossCameraMatch> Follow(const std::vector<TrackedFeature>& features_a,
                                        const std::vector<CrossCameraMatch>& previous,
                                        const std::vector<cv::Mat>& previous_pyramid_b,
-                                       const std::vector<cv::Mat>& pyramid_b, CrossCameraPairStats* stats) const;
+                                       const std::vector<cv::Mat>& pyramid_b,
+                                       CrossCameraPairStats* stats) const;
 
   int camera_a() const { return camera_a_; }
   int camera_b() const { return camera_b_; }
@@ -162,6 +163,12 @@ class CrossCameraMatcher {
     // outside it, so only this part is resampled.
     cv::Rect seen_box;
   };
+
+  // A match that passed the checks: a's feature and its pixel in b.
+  using Accepted = std::pair<const TrackedFeature*, Eigen::Vector2f>;
+  // max_matches_per_pair (longest tracks first, ties in the given order;
+  // stats->over_limit), then the matches sorted by id_a.
+  std::vector<CrossCameraMatch> ToMatches(std::vector<Accepted> accepted, CrossCameraPairStats* stats) const;
 
   // b's pixel is inside b's image (1 px border) and mask.
   bool UsableInB(const cv::Point2f& p) const;
