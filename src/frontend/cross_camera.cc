@@ -288,9 +288,7 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
                                                         CrossCameraPairStats* stats) const {
   MCVO_CHECK(stats != nullptr);
   const Clock::time_point start = Clock::now();
-  *stats = CrossCameraPairStats();
-  stats->camera_a = camera_a_;
-  stats->camera_b = camera_b_;
+  *stats = EmptyStats();
   std::vector<CrossCameraMatch> matches;
   if (pyramid_a.empty() || pyramid_b.empty()) return matches;
   MCVO_CHECK(pyramid_a.front().cols == a_.width && pyramid_a.front().rows == a_.height);
@@ -376,6 +374,13 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Match(const std::vector<Tracke
   return finish();
 }
 
+CrossCameraPairStats CrossCameraMatcher::EmptyStats() const {
+  CrossCameraPairStats stats;
+  stats.camera_a = camera_a_;
+  stats.camera_b = camera_b_;
+  return stats;
+}
+
 std::vector<CrossCameraMatch> CrossCameraMatcher::ToMatches(std::vector<Accepted> accepted,
                                                             CrossCameraPairStats* stats) const {
   // Limit: longest tracks first (ties: a's feature order), then by id.
@@ -408,9 +413,7 @@ std::vector<CrossCameraMatch> CrossCameraMatcher::Follow(const std::vector<Track
                                                          CrossCameraPairStats* stats) const {
   MCVO_CHECK(stats != nullptr);
   const Clock::time_point start = Clock::now();
-  *stats = CrossCameraPairStats();
-  stats->camera_a = camera_a_;
-  stats->camera_b = camera_b_;
+  *stats = EmptyStats();
   std::vector<CrossCameraMatch> matches;
   auto finish = [&]() {
     stats->matches = static_cast<int>(matches.size());

@@ -118,7 +118,7 @@ MultiCameraFrame MultiCameraTracker::Track(int frame_index, int64_t t_ns,
       if (static_cast<double>(matches[i].size()) >=
           impl_->rematch_below_fraction * static_cast<double>(impl_->full_matches[i])) {
         ++since_full;
-        if (impl_->rematch_every > 1) impl_->last_matches[i] = matches[i];
+        impl_->last_matches[i] = matches[i];  // only reached with rematch_every > 1
         return;
       }
     }

@@ -164,6 +164,9 @@ class CrossCameraMatcher {
     cv::Rect seen_box;
   };
 
+  // Statistics of this pair for a frame, zeroed, with the pair's cameras.
+  CrossCameraPairStats EmptyStats() const;
+
   // A match that passed the checks: a's feature and its pixel in b.
   using Accepted = std::pair<const TrackedFeature*, Eigen::Vector2f>;
   // max_matches_per_pair (longest tracks first, ties in the given order;
