@@ -257,6 +257,7 @@ void Visit(V& v, GlobalBaOptions* o) {
   v.Field("max_iterations", &o->max_iterations);
   v.Field("outlier_rounds", &o->outlier_rounds);
   v.Field("first_solve_function_tolerance", &o->first_solve_function_tolerance);
+  v.Field("inner_iterations", &o->inner_iterations);
   v.Enum("loss", &o->loss, kLossTypeNames);
   v.Field("loss_scale", &o->loss_scale);
   v.Field("adaptive_loss_sigmas", &o->adaptive_loss_sigmas);

@@ -223,7 +223,8 @@ class GlobalProblem {
   bool Counts(const Observation& o) const { return o.active && landmark_used_[static_cast<size_t>(o.landmark)]; }
 
   // One Ceres solve over the active observations.
-  ceres::Solver::Summary Solve(double function_tolerance, int* components, int* constraints_used) {
+  ceres::Solver::Summary Solve(double function_tolerance, bool inner_iterations, int* components,
+                               int* constraints_used) {
     ceres::Problem::Options problem_options;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -287,6 +288,19 @@ class GlobalProblem {
         ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ? ceres::SUITE_SPARSE
                                                                                : ceres::EIGEN_SPARSE;
     solver_options.linear_solver_ordering = ordering;
+    if (inner_iterations) {
+      // "Solves" in global_ba.h. The eliminated points, an independent set by
+      // construction, are the one group; given explicitly, since Ceres'
+      // automatic grouping walks a hash set of block addresses.
+      auto inner = std::make_shared<ceres::ParameterBlockOrdering>();
+      for (size_t i = 0; i < points_.size(); ++i) {
+        if (landmark_used_[i] && eliminated[i] && problem.HasParameterBlock(points_[i].data())) {
+          inner->AddElementToGroup(points_[i].data(), 0);
+        }
+      }
+      solver_options.use_inner_iterations = inner->NumElements() > 0;
+      solver_options.inner_iteration_ordering = inner;
+    }
     solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
     solver_options.max_num_iterations = options_.max_iterations;
     solver_options.function_tolerance = function_tolerance;
@@ -633,7 +647,8 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
     const bool short_solve =
         round < options.outlier_rounds && options.first_solve_function_tolerance > options.function_tolerance;
     const double tolerance = short_solve ? options.first_solve_function_tolerance : options.function_tolerance;
-    const ceres::Solver::Summary summary = problem.Solve(tolerance, &result.components, &result.constraints_used);
+    const ceres::Solver::Summary summary =
+        problem.Solve(tolerance, options.inner_iterations && !short_solve, &result.components, &result.constraints_used);
     if (round == 0) result.initial_cost = summary.initial_cost;
     result.final_cost = summary.final_cost;
     result.iterations += static_cast<int>(summary.iterations.size()) - 1;
