@@ -153,7 +153,7 @@ struct GlobalBaOptions {
   int max_iterations = 20;             // Levenberg-Marquardt iterations per solve
   int outlier_rounds = 1;              // solves after the first one, each after removing outliers
   double first_solve_function_tolerance = 1e-3;  // "Solves" above: each solve but the last
-  bool inner_iterations = false;                 // "Solves" above: Ceres' inner iterations
+  bool inner_iterations = false;                 // "Solves" above: inner iterations over the points, last solve
   LossType loss = LossType::kCauchy;   // on every observation
   double loss_scale = 1.0;             // in units of reprojection_sigma_px: the first solve's knee
   // "Robust loss" above: each later solve's Cauchy knee is this many times
