@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "command.h"
+#include "mcvo/util/blas.h"
 #include "mcvo/util/error.h"
 
 namespace mcvo::tools {
@@ -35,6 +36,7 @@ void PrintTopLevelHelp(std::ostream& out) {
 int main(int argc, char** argv) {
   using namespace mcvo;
   std::setlocale(LC_ALL, "C");
+  PinBlasToOneThread();
   if (argc < 2 || std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0 ||
       std::strcmp(argv[1], "help") == 0) {
     tools::PrintTopLevelHelp(argc < 2 ? std::cerr : std::cout);

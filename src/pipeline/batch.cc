@@ -17,6 +17,7 @@
 #include "mcvo/io/json_util.h"
 #include "mcvo/pipeline/run.h"
 #include "mcvo/pipeline/run_manifest.h"
+#include "mcvo/util/blas.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
@@ -457,6 +458,7 @@ std::optional<std::string> RunOutOfDateReason(const fs::path& run_dir, const Bat
   if (run->executable_sha256 != ExecutableSha256()) {
     return std::string("made by another mcvo build (run.json build.executable_sha256)");
   }
+  if (run->blas != BlasLibrary()) return std::string("made with another BLAS (run.json build.blas)");
   if (!run->Has("outputs_sha256")) return std::string("run.json lists no outputs");
   for (const auto& [name, hash] : run->outputs_sha256) {
     const fs::path file = run_dir / name;

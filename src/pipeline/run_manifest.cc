@@ -37,7 +37,7 @@ Json RunManifest::ToJson() const {
   Json run;
   run["program"] = program;
   run["version"] = version;
-  run["build"] = Json{{"executable_sha256", executable_sha256}};
+  run["build"] = Json{{"executable_sha256", executable_sha256}, {"blas", blas}};
   run["command_line"] = command_line;
   run["config_source"] = config_source;
   run["config"] = config;
@@ -76,7 +76,10 @@ RunManifest RunManifest::FromJson(const Json& json) {
                                    {"config_source", &m.config_source}}) {
     if (const Json* v = take(key, T::string)) *field = v->get<std::string>();
   }
-  if (const Json* v = take("build", T::object)) m.executable_sha256 = StringOr(*v, "executable_sha256");
+  if (const Json* v = take("build", T::object)) {
+    m.executable_sha256 = StringOr(*v, "executable_sha256");
+    m.blas = StringOr(*v, "blas");
+  }
   if (const Json* v = take("config", T::object)) m.config = *v;
   if (const Json* v = take("dataset", T::object)) {
     m.dataset.root = StringOr(*v, "root");

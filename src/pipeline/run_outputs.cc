@@ -17,6 +17,7 @@
 #include "mcvo/io/rig_io.h"
 #include "mcvo/io/trajectory_io.h"
 #include "mcvo/pipeline/run_manifest.h"
+#include "mcvo/util/blas.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
@@ -546,6 +547,7 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
   RunManifest run;
   run.version = request.version;
   run.executable_sha256 = ExecutableSha256();
+  run.blas = BlasLibrary();
   run.command_line = request.command_line;
   run.config_source = request.config_source;
   run.config = recorded_config;

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mcvo/synth/synthesize.h"
+#include "mcvo/util/blas.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/sha256.h"
@@ -275,6 +276,16 @@ TEST(BatchRun, SkipsRunsThatAreUpToDateAndRerunsChangedOnes) {
   EXPECT_EQ(report.runs[1].status, BatchRunStatus::kOk);
   EXPECT_NE(report.runs[1].note.find("made by another mcvo build"), std::string::npos) << report.runs[1].note;
 
+  // Made with another BLAS (the same executable, another libblas.so.3): runs again.
+  run_b = RunJson(options.out_dir / "b");
+  ASSERT_EQ(run_b["build"]["blas"], BlasLibrary());
+  run_b["build"]["blas"] = "/usr/lib/x86_64-linux-gnu/blas/libblas.so.3.11.0";
+  WriteFileAtomic(options.out_dir / "b" / "run.json", run_b.dump(2));
+  report = RunBatch(manifest, options);
+  EXPECT_EQ(report.runs[0].status, BatchRunStatus::kSkipped);
+  EXPECT_EQ(report.runs[1].status, BatchRunStatus::kOk);
+  EXPECT_NE(report.runs[1].note.find("made with another BLAS"), std::string::npos) << report.runs[1].note;
+
   // An output edited by hand: runs again. --force: runs again although up to date.
   WriteFileAtomic(options.out_dir / "a" / "trajectory.tum", "edited\n");
   report = RunBatch(manifest, options);
@@ -395,7 +406,8 @@ TEST(BatchRun, SummaryHoldsTheNumbersOfEachRun) {
   EXPECT_NE(broken.find(",,,,,,,,,,"), std::string::npos) << broken;  // no numbers
 
   const std::string md = ReadFileToString(options.out_dir / "summary.md");
-  EXPECT_NE(md.find(StrCat("| full | skipped (up to date) | 20 | ", r.posed_frames, " | 1 | ")), std::string::npos)
+  EXPECT_NE(md.find(StrCat("| full | skipped (up to date) | 20 | ", r.posed_frames, " | 1 | ")),
+            std::string::npos)
       << md;
   EXPECT_NE(md.find("| broken | failed: "), std::string::npos) << md;
   EXPECT_NE(md.find("2 runs: 0 ok, 1 skipped (up to date), 1 failed"), std::string::npos) << md;

@@ -18,6 +18,7 @@ RunManifest Example() {
   RunManifest m;
   m.version = "0.1.0";
   m.executable_sha256 = "ab12";
+  m.blas = "/usr/lib/x86_64-linux-gnu/openblas-serial/libblas.so.3";
   m.command_line = "mcvo run --dataset d";
   m.config_source = "config/kitti360_4cam.json";
   m.config = {{"runtime", {{"threads", 0}}}, {"backend", {{"window_size", 10}}}};
@@ -46,6 +47,7 @@ TEST(RunManifest, RoundTripsThroughJsonInRunJsonsOrder) {
             (std::vector<std::string>{"program", "version", "build", "command_line", "config_source",
                                       "config", "dataset", "inputs", "outputs_sha256", "result", "timing"}));
   EXPECT_EQ(json["build"]["executable_sha256"], "ab12");
+  EXPECT_EQ(json["build"]["blas"], "/usr/lib/x86_64-linux-gnu/openblas-serial/libblas.so.3");
   // The config keeps the writer's order (backend after runtime here).
   EXPECT_EQ(json["config"].begin().key(), "runtime");
 

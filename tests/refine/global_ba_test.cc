@@ -8,14 +8,17 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
-#include <set>
 #include <random>
+#include <set>
 #include <vector>
 
+#include <dlfcn.h>
 #include <gtest/gtest.h>
 
 #include "initializer/synthetic_rig_tracks.h"
+#include "mcvo/util/blas.h"
 #include "mcvo/util/error.h"
 
 namespace mcvo {
@@ -25,9 +28,9 @@ using testing::LoadPresetRig;
 
 struct Scene {
   Rig rig;
-  std::vector<Rigid3d> truth;                   // world_from_rig per keyframe
-  std::map<int64_t, Eigen::Vector3d> points;   // id -> true position
-  SparseMap map;                               // observations (noisy pixels), poses and points to refine
+  std::vector<Rigid3d> truth;                 // world_from_rig per keyframe
+  std::map<int64_t, Eigen::Vector3d> points;  // id -> true position
+  SparseMap map;                              // observations (noisy pixels), poses and points to refine
 };
 
 // `keyframes` keyframes 1.5 m apart, turning 2 deg per keyframe (80 deg
@@ -57,9 +60,9 @@ Scene MakeScene(const std::string& rig_name, double pixel_noise, double start_sc
     kf.t_ns = static_cast<int64_t>(k) * 300000000;
     const Rigid3d& truth = scene.truth[k];
     const Eigen::Quaterniond drift(Eigen::AngleAxisd(0.0005 * k * wobble(rng), Eigen::Vector3d::UnitZ()));
-    kf.world_from_rig = Rigid3d(drift * truth.rotation,
-                                origin + start_scale * (truth.translation - origin) +
-                                    0.05 * Eigen::Vector3d(wobble(rng), wobble(rng), wobble(rng)));
+    kf.world_from_rig =
+        Rigid3d(drift * truth.rotation, origin + start_scale * (truth.translation - origin) +
+                                            0.05 * Eigen::Vector3d(wobble(rng), wobble(rng), wobble(rng)));
     if (k == 0) kf.world_from_rig = truth;
     for (int c = 0; c < scene.rig.NumCameras(); ++c) {
       const Camera& camera = scene.rig.cameras[static_cast<size_t>(c)];
@@ -83,8 +86,8 @@ Scene MakeScene(const std::string& rig_name, double pixel_noise, double start_sc
     scene.map.keyframes.push_back(kf);
   }
   for (const auto& [id, point] : scene.points) {
-    scene.map.landmarks.push_back(
-        {id, origin + start_scale * (point - origin) + 0.2 * Eigen::Vector3d(wobble(rng), wobble(rng), wobble(rng))});
+    scene.map.landmarks.push_back({id, origin + start_scale * (point - origin) +
+                                           0.2 * Eigen::Vector3d(wobble(rng), wobble(rng), wobble(rng))});
   }
   return scene;
 }
@@ -131,14 +134,16 @@ TEST(GlobalBaTest, NonOverlappingRigRecoversPosesAndTheScaleAlongTheRoute) {
   std::vector<double> relative;
   for (const MapLandmark& landmark : result.map.landmarks) {
     double nearest = 1e9;
-    for (const Rigid3d& pose : scene.truth) nearest = std::min(nearest, (pose.translation - landmark.position_world).norm());
+    for (const Rigid3d& pose : scene.truth)
+      nearest = std::min(nearest, (pose.translation - landmark.position_world).norm());
     relative.push_back((landmark.position_world - scene.points.at(landmark.id)).norm() / nearest);
   }
   std::sort(relative.begin(), relative.end());
   const double median = relative[relative.size() / 2], p90 = relative[relative.size() * 9 / 10];
-  std::printf("%zu landmarks: relative error median %.4f, p90 %.4f; route scale %.5f, worst pose error %.3f m\n",
-              relative.size(), median, p90, RouteScale(result.map, scene.truth),
-              MaxPositionError(result.map, scene.truth));
+  std::printf(
+      "%zu landmarks: relative error median %.4f, p90 %.4f; route scale %.5f, worst pose error %.3f m\n",
+      relative.size(), median, p90, RouteScale(result.map, scene.truth),
+      MaxPositionError(result.map, scene.truth));
   EXPECT_LT(median, 0.005);
   EXPECT_LT(p90, 0.03);
 }
@@ -182,7 +187,8 @@ TEST(GlobalBaTest, TiedLandmarksOfCamerasWithoutOverlapGiveTheScaleOnAStraight) 
   for (const int64_t id : split) ties.push_back({id, id + kDuplicateOffset, 0.02, 3.0});
   // A tie naming a landmark the map lacks is left out.
   ties.push_back({split.front(), 999999999, 0.02, 3.0});
-  const GlobalBaResult tied = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions(), {}, ties);
+  const GlobalBaResult tied =
+      RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions(), {}, ties);
   ASSERT_TRUE(tied.ran) << tied.message;
   // Ties whose landmarks both have the 2 observations a refined landmark needs.
   std::map<int64_t, int> observations;
@@ -190,11 +196,13 @@ TEST(GlobalBaTest, TiedLandmarksOfCamerasWithoutOverlapGiveTheScaleOnAStraight) 
     for (const MapObservation& ob : kf.observations) ++observations[ob.landmark_id];
   }
   int usable = 0;
-  for (const int64_t id : split) usable += observations[id] >= 2 && observations[id + kDuplicateOffset] >= 2 ? 1 : 0;
+  for (const int64_t id : split)
+    usable += observations[id] >= 2 && observations[id + kDuplicateOffset] >= 2 ? 1 : 0;
   EXPECT_LE(tied.ties_used, usable);
   EXPECT_GE(tied.ties_used, usable * 9 / 10);
   EXPECT_EQ(tied.components, 1);
-  const double untied_scale = RouteScale(untied.map, scene.truth), tied_scale = RouteScale(tied.map, scene.truth);
+  const double untied_scale = RouteScale(untied.map, scene.truth),
+               tied_scale = RouteScale(tied.map, scene.truth);
   std::printf("%zu ties: route scale %.5f untied, %.5f tied\n", split.size(), untied_scale, tied_scale);
   EXPECT_GT(std::abs(untied_scale - 1.0), 0.03);
   EXPECT_NEAR(tied_scale, 1.0, 0.005);
@@ -215,8 +223,10 @@ double ProfileStep(const SparseMap& map, size_t mid) {
   double first = 0.0, second = 0.0;
   for (size_t k = 1; k < map.keyframes.size(); ++k) {
     const double d =
-        (map.keyframes[k].world_from_rig.translation - map.keyframes[k - 1].world_from_rig.translation).norm();
-    (k <= mid ? first : second) += d / (k <= mid ? static_cast<double>(mid) : static_cast<double>(map.keyframes.size() - 1 - mid));
+        (map.keyframes[k].world_from_rig.translation - map.keyframes[k - 1].world_from_rig.translation)
+            .norm();
+    (k <= mid ? first : second) +=
+        d / (k <= mid ? static_cast<double>(mid) : static_cast<double>(map.keyframes.size() - 1 - mid));
   }
   return std::log(second / first);
 }
@@ -224,10 +234,14 @@ double ProfileStep(const SparseMap& map, size_t mid) {
 TEST(GlobalBaTest, StraightScaleHoldOnlyOnStraightsWithoutOverlappingViews) {
   // Turning 2 deg per keyframe: never held.
   const Scene turning = MakeScene("kitti360_3cam", 0.3, 1.0, 11, 24, 2.0, true);
-  EXPECT_EQ(RunGlobalBundleAdjustment(turning.rig, turning.map, false, GlobalBaOptions()).straight_scale_residuals, 0);
+  EXPECT_EQ(
+      RunGlobalBundleAdjustment(turning.rig, turning.map, false, GlobalBaOptions()).straight_scale_residuals,
+      0);
   // Straight, the 4-camera rig's overlapping views: never held.
   const Scene overlap = MakeScene("kitti360", 0.3, 1.0, 12, 24, 0.0, false);
-  EXPECT_EQ(RunGlobalBundleAdjustment(overlap.rig, overlap.map, false, GlobalBaOptions()).straight_scale_residuals, 0);
+  EXPECT_EQ(
+      RunGlobalBundleAdjustment(overlap.rig, overlap.map, false, GlobalBaOptions()).straight_scale_residuals,
+      0);
   // Straight without overlap: spans of 5 keyframes, pairs at 5, 10, 15 (of 24).
   const Scene straight = MakeScene("kitti360_3cam", 0.3, 1.0, 13, 24, 0.0, true);
   const GlobalBaResult held = RunGlobalBundleAdjustment(straight.rig, straight.map, false, GlobalBaOptions());
@@ -307,14 +321,16 @@ TEST(GlobalBaTest, TheSecondSolvesKneeFollowsTheMeasuredNoise) {
     Scene scene = MakeScene("kitti360", noise, 1.0, 4);
     // Outliers, so that the second solve runs with the knee off too.
     for (MapKeyframe& kf : scene.map.keyframes) {
-      for (size_t i = 0; i < kf.observations.size(); i += 40) kf.observations[i].pixel += Eigen::Vector2d(25.0, 10.0);
+      for (size_t i = 0; i < kf.observations.size(); i += 40)
+        kf.observations[i].pixel += Eigen::Vector2d(25.0, 10.0);
     }
     const GlobalBaResult result = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
     ASSERT_TRUE(result.ran);
     ASSERT_EQ(result.loss_knee_px.size(), 2u);
     EXPECT_EQ(result.loss_knee_px[0], 1.5);
-    std::printf("pixel noise %.1f px: knees %.3f, %.3f px (at the virtual focal); max position error %.4f m\n", noise,
-                result.loss_knee_px[0], result.loss_knee_px[1], MaxPositionError(result.map, scene.truth));
+    std::printf(
+        "pixel noise %.1f px: knees %.3f, %.3f px (at the virtual focal); max position error %.4f m\n", noise,
+        result.loss_knee_px[0], result.loss_knee_px[1], MaxPositionError(result.map, scene.truth));
     knees.push_back(result.loss_knee_px[1]);
     EXPECT_LT(MaxPositionError(result.map, scene.truth), 0.1);
 
@@ -343,7 +359,8 @@ TEST(GlobalBaTest, TheSecondSolvesKneeFollowsTheMeasuredNoise) {
 TEST(GlobalBaTest, ALooseFirstSolveGivesTheSameResultAndIsNeverTheLast) {
   Scene scene = MakeScene("kitti360", 0.3, 1.03, 6);
   for (MapKeyframe& kf : scene.map.keyframes) {
-    for (size_t i = 0; i < kf.observations.size(); i += 30) kf.observations[i].pixel += Eigen::Vector2d(-20.0, 25.0);
+    for (size_t i = 0; i < kf.observations.size(); i += 30)
+      kf.observations[i].pixel += Eigen::Vector2d(-20.0, 25.0);
   }
   GlobalBaOptions full;
   full.first_solve_function_tolerance = full.function_tolerance;
@@ -353,11 +370,12 @@ TEST(GlobalBaTest, ALooseFirstSolveGivesTheSameResultAndIsNeverTheLast) {
   ASSERT_EQ(a.solves, 2);
   ASSERT_EQ(b.solves, 2);
   const double error_a = MaxPositionError(a.map, scene.truth), error_b = MaxPositionError(b.map, scene.truth);
-  std::printf("first solve to %g / %g: %d / %d iterations in all, max position error %.4f / %.4f m, "
-              "route scale %.5f / %.5f, %d / %d observations removed\n",
-              full.function_tolerance, GlobalBaOptions().first_solve_function_tolerance, a.iterations, b.iterations, error_a,
-              error_b, RouteScale(a.map, scene.truth), RouteScale(b.map, scene.truth), a.observations_removed,
-              b.observations_removed);
+  std::printf(
+      "first solve to %g / %g: %d / %d iterations in all, max position error %.4f / %.4f m, "
+      "route scale %.5f / %.5f, %d / %d observations removed\n",
+      full.function_tolerance, GlobalBaOptions().first_solve_function_tolerance, a.iterations, b.iterations,
+      error_a, error_b, RouteScale(a.map, scene.truth), RouteScale(b.map, scene.truth),
+      a.observations_removed, b.observations_removed);
   EXPECT_LT(b.iterations, a.iterations);
   EXPECT_LT(error_b, 0.05);
   EXPECT_NEAR(error_b, error_a, 0.005);
@@ -377,7 +395,8 @@ TEST(GlobalBaTest, ALooseFirstSolveGivesTheSameResultAndIsNeverTheLast) {
   EXPECT_EQ(full_first.solves, 1);
   EXPECT_EQ(short_first.solves, 2);
   EXPECT_EQ(short_first.observations_removed, 0);
-  EXPECT_NEAR(MaxPositionError(short_first.map, noisy.truth), MaxPositionError(full_first.map, noisy.truth), 0.01);
+  EXPECT_NEAR(MaxPositionError(short_first.map, noisy.truth), MaxPositionError(full_first.map, noisy.truth),
+              0.01);
 
   // One solve only (outlier_rounds 0): it is the last, never loose.
   GlobalBaOptions single;
@@ -406,12 +425,13 @@ TEST(GlobalBaTest, ScaleFreeProblemKeepsTheDistanceFromFirstToLastKeyframe) {
     kf.observations = kept;
   }
   const double distance_before =
-      (map.keyframes.back().world_from_rig.translation - map.keyframes.front().world_from_rig.translation).norm();
+      (map.keyframes.back().world_from_rig.translation - map.keyframes.front().world_from_rig.translation)
+          .norm();
   const GlobalBaResult result = RunGlobalBundleAdjustment(mono, map, true, GlobalBaOptions());
   ASSERT_TRUE(result.ran);
-  const double distance_after =
-      (result.map.keyframes.back().world_from_rig.translation - result.map.keyframes.front().world_from_rig.translation)
-          .norm();
+  const double distance_after = (result.map.keyframes.back().world_from_rig.translation -
+                                 result.map.keyframes.front().world_from_rig.translation)
+                                    .norm();
   EXPECT_NEAR(distance_after / distance_before, 1.0, 1e-3);
   EXPECT_LT(result.rms_error_px_after, 0.6);
 }
@@ -430,8 +450,10 @@ TEST(GlobalBaTest, DisconnectedPartsAreEachHeldByTheirFirstKeyframe) {
   const GlobalBaResult result = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
   ASSERT_TRUE(result.ran);
   EXPECT_EQ(result.components, 2);
-  EXPECT_EQ(result.map.keyframes[12].world_from_rig.translation, scene.map.keyframes[12].world_from_rig.translation);
-  EXPECT_EQ(result.map.keyframes[0].world_from_rig.translation, scene.map.keyframes[0].world_from_rig.translation);
+  EXPECT_EQ(result.map.keyframes[12].world_from_rig.translation,
+            scene.map.keyframes[12].world_from_rig.translation);
+  EXPECT_EQ(result.map.keyframes[0].world_from_rig.translation,
+            scene.map.keyframes[0].world_from_rig.translation);
 }
 
 TEST(GlobalBaTest, ALoopConstraintJoinsAndPlacesADisconnectedPart) {
@@ -463,7 +485,8 @@ TEST(GlobalBaTest, ALoopConstraintJoinsAndPlacesADisconnectedPart) {
   loop.rotation_sigma_rad = 0.001;
   loop.translation_sigma_m = 0.01;
   const GlobalBaResult without = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
-  const GlobalBaResult with = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions(), {loop});
+  const GlobalBaResult with =
+      RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions(), {loop});
   ASSERT_TRUE(without.ran && with.ran);
   EXPECT_EQ(without.components, 2);
   EXPECT_EQ(without.constraints_used, 0);
@@ -490,9 +513,10 @@ TEST(GlobalBaTest, InnerIterationsReachTheSameMinimumInFewerSteps) {
   ASSERT_TRUE(a.ran && b.ran);
   const double scale_a = RouteScale(a.map, scene.truth), scale_b = RouteScale(b.map, scene.truth);
   const double error_a = MaxPositionError(a.map, scene.truth), error_b = MaxPositionError(b.map, scene.truth);
-  std::printf("plain / inner: %d / %d LM iterations, cost %.6g / %.6g, route scale %.5f / %.5f, max position "
-              "error %.4f / %.4f m\n",
-              a.iterations, b.iterations, a.final_cost, b.final_cost, scale_a, scale_b, error_a, error_b);
+  std::printf(
+      "plain / inner: %d / %d LM iterations, cost %.6g / %.6g, route scale %.5f / %.5f, max position "
+      "error %.4f / %.4f m\n",
+      a.iterations, b.iterations, a.final_cost, b.final_cost, scale_a, scale_b, error_a, error_b);
   EXPECT_LT(b.iterations, a.iterations);
   EXPECT_NEAR(b.final_cost / a.final_cost, 1.0, 1e-3);
   EXPECT_NEAR(scale_b, scale_a, 1e-3);
@@ -506,7 +530,8 @@ TEST(GlobalBaTest, DeterministicBitForBit) {
   ASSERT_EQ(a.map.keyframes.size(), b.map.keyframes.size());
   for (size_t k = 0; k < a.map.keyframes.size(); ++k) {
     EXPECT_EQ(a.map.keyframes[k].world_from_rig.translation, b.map.keyframes[k].world_from_rig.translation);
-    EXPECT_EQ(a.map.keyframes[k].world_from_rig.rotation.coeffs(), b.map.keyframes[k].world_from_rig.rotation.coeffs());
+    EXPECT_EQ(a.map.keyframes[k].world_from_rig.rotation.coeffs(),
+              b.map.keyframes[k].world_from_rig.rotation.coeffs());
   }
   ASSERT_EQ(a.map.landmarks.size(), b.map.landmarks.size());
   for (size_t i = 0; i < a.map.landmarks.size(); ++i) {
@@ -537,8 +562,9 @@ TEST(GlobalBaTest, RefinedExtrinsicsRecoverACalibrationError) {
   const Scene scene = MakeScene("kitti360", 0.3, 1.0, 3, 16);
   Rig wrong = scene.rig;
   const Rigid3d truth_1 = scene.rig.cameras[1].cam_from_rig;
-  const Rigid3d error(Eigen::Quaterniond(Eigen::AngleAxisd(0.4 * M_PI / 180.0, Eigen::Vector3d(0.6, 0.8, 0.0))),
-                      Eigen::Vector3d(0.03, 0.0, 0.0));
+  const Rigid3d error(
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.4 * M_PI / 180.0, Eigen::Vector3d(0.6, 0.8, 0.0))),
+      Eigen::Vector3d(0.03, 0.0, 0.0));
   wrong.cameras[1].cam_from_rig = error * truth_1;
   auto rotation_error_deg = [&](const Rigid3d& cam_from_rig) {
     return cam_from_rig.rotation.angularDistance(truth_1.rotation) * 180.0 / M_PI;
@@ -555,12 +581,13 @@ TEST(GlobalBaTest, RefinedExtrinsicsRecoverACalibrationError) {
   const GlobalBaResult refined = RunGlobalBundleAdjustment(wrong, scene.map, false, options);
   ASSERT_TRUE(fixed.ran && refined.ran) << fixed.message << " / " << refined.message;
   ASSERT_EQ(refined.cam_from_rig.size(), 4u);
-  std::printf("camera 1: rotation error 0.400 -> %.3f deg, centre error %.4f -> %.4f m; rms %.3f px fixed, %.3f px "
-              "refined; changes %.3f / %.3f / %.3f / %.3f deg\n",
-              rotation_error_deg(refined.cam_from_rig[1]), centre_error_before,
-              centre_error_m(refined.cam_from_rig[1]), fixed.rms_error_px_after, refined.rms_error_px_after,
-              refined.extrinsic_rotation_change_deg[0], refined.extrinsic_rotation_change_deg[1],
-              refined.extrinsic_rotation_change_deg[2], refined.extrinsic_rotation_change_deg[3]);
+  std::printf(
+      "camera 1: rotation error 0.400 -> %.3f deg, centre error %.4f -> %.4f m; rms %.3f px fixed, %.3f px "
+      "refined; changes %.3f / %.3f / %.3f / %.3f deg\n",
+      rotation_error_deg(refined.cam_from_rig[1]), centre_error_before,
+      centre_error_m(refined.cam_from_rig[1]), fixed.rms_error_px_after, refined.rms_error_px_after,
+      refined.extrinsic_rotation_change_deg[0], refined.extrinsic_rotation_change_deg[1],
+      refined.extrinsic_rotation_change_deg[2], refined.extrinsic_rotation_change_deg[3]);
   // Fixed: the input's extrinsics come back unchanged.
   EXPECT_EQ(fixed.cam_from_rig[1].translation, wrong.cameras[1].cam_from_rig.translation);
   EXPECT_EQ(fixed.extrinsic_rotation_change_deg[1], 0.0);
@@ -573,6 +600,33 @@ TEST(GlobalBaTest, RefinedExtrinsicsRecoverACalibrationError) {
   for (int c : {2, 3}) EXPECT_LT(refined.extrinsic_rotation_change_deg[static_cast<size_t>(c)], 0.05) << c;
   EXPECT_LT(refined.rms_error_px_after, 0.8 * fixed.rms_error_px_after);
   EXPECT_LE(MaxPositionError(refined.map, scene.truth), MaxPositionError(fixed.map, scene.truth));
+}
+
+// The global BA's sparse Cholesky calls BLAS (mcvo/util/blas.h): this
+// binary links it as mcvo does, through libblas.so.3, so a BLAS is loaded
+// and named by its file; pinning a threaded OpenBLAS to one thread leaves
+// the solution bit for bit as it was.
+TEST(BlasTest, TheLoadedBlasIsNamedByItsFileAndOneThreadChangesNothing) {
+  const std::string library = BlasLibrary();
+  ASSERT_FALSE(library.empty());
+  EXPECT_TRUE(std::filesystem::is_regular_file(library)) << library;
+  // dgemm_ comes from the machine's libblas.so.3 (Debian's alternatives),
+  // not from a BLAS linked by name ahead of it (CMakeLists.txt).
+  void* system_blas = dlopen("libblas.so.3", RTLD_LAZY | RTLD_NOLOAD);
+  ASSERT_NE(system_blas, nullptr) << "libblas.so.3 is not loaded";
+  void* dgemm = dlsym(system_blas, "dgemm_");
+  ASSERT_NE(dgemm, nullptr);
+  Dl_info info{};
+  ASSERT_NE(dladdr(dgemm, &info), 0);
+  EXPECT_EQ(std::filesystem::canonical(info.dli_fname).string(), library);
+  dlclose(system_blas);
+
+  const Scene scene = MakeScene("kitti360_3cam", 0.5, 1.03, 5);
+  const GlobalBaResult a = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  PinBlasToOneThread();
+  PinBlasToOneThread();
+  const GlobalBaResult b = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  EXPECT_EQ(a.final_cost, b.final_cost);
 }
 
 TEST(GlobalBaOptionsTest, CheckNamesTheField) {
@@ -593,7 +647,8 @@ TEST(GlobalBaOptionsTest, CheckNamesTheField) {
     first.Check();
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("/refine/first_solve_function_tolerance"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("/refine/first_solve_function_tolerance"), std::string::npos)
+        << e.what();
   }
   GlobalBaOptions options;
   options.min_observations = 1;

@@ -54,6 +54,9 @@ struct RunManifest {
   // SHA-256 of the executable that made the outputs ("build"): `mcvo batch`
   // runs a run again when it changes; `mcvo regress` ignores it.
   std::string executable_sha256;
+  // The BLAS library the run was made with (mcvo/util/blas.h); with the
+  // executable, what `mcvo batch` compares ("build").
+  std::string blas;
   std::string command_line;
   std::string config_source;
   // JSON members keep the order they were written in (run.json reads as
