@@ -267,6 +267,8 @@ void Visit(V& v, GlobalBaOptions* o) {
   v.Field("outlier_threshold_px", &o->outlier_threshold_px);
   v.Field("min_observations", &o->min_observations);
   v.Field("function_tolerance", &o->function_tolerance);
+  v.Field("thin_tracks_longer_than", &o->thin_tracks_longer_than);
+  v.Field("thin_track_stride", &o->thin_track_stride);
   v.Field("fuse_loop_landmarks", &o->fuse_loop_landmarks);
   v.Field("straight_scale_sigma", &o->straight_scale_sigma);
   v.Field("straight_max_rotation_deg", &o->straight_max_rotation_deg);

@@ -134,6 +134,7 @@ struct Observation {
   int landmark = 0;  // index into Problem's landmark arrays
   Eigen::Vector3d bearing = Eigen::Vector3d::UnitZ();
   bool active = true;
+  bool in_solve = true;  // false: a long track's thinned keyframe (global_ba.h "Long tracks")
 };
 
 int FindRoot(std::vector<int>* parent, int i) {
@@ -188,6 +189,28 @@ class GlobalProblem {
       }
     }
     CountSharedLandmarks();
+    ThinLongTracks();
+  }
+
+  // global_ba.h "Long tracks": a landmark seen in more than
+  // thin_tracks_longer_than keyframes keeps its observations of every
+  // thin_track_stride-th of them and of its last in the solves.
+  void ThinLongTracks() {
+    if (options_.thin_tracks_longer_than <= 0) return;
+    std::vector<int> keyframes(points_.size(), 0), last(points_.size(), -1), rank(points_.size(), -1);
+    for (const Observation& o : observations_) {  // in keyframe order
+      const size_t i = static_cast<size_t>(o.landmark);
+      keyframes[i] += last[i] != o.keyframe ? 1 : 0;
+      last[i] = o.keyframe;
+    }
+    last.assign(points_.size(), -1);
+    for (Observation& o : observations_) {
+      const size_t i = static_cast<size_t>(o.landmark);
+      rank[i] += last[i] != o.keyframe ? 1 : 0;
+      last[i] = o.keyframe;
+      if (keyframes[i] <= options_.thin_tracks_longer_than) continue;
+      o.in_solve = rank[i] % options_.thin_track_stride == 0 || rank[i] == keyframes[i] - 1;
+    }
   }
 
   // Per keyframe: landmarks seen by two or more of its cameras (overlapping
@@ -207,7 +230,7 @@ class GlobalProblem {
   // holding one; false when nothing is left to solve.
   bool SelectActive() {
     std::vector<int> count(points_.size(), 0);
-    for (const Observation& o : observations_) count[static_cast<size_t>(o.landmark)] += o.active ? 1 : 0;
+    for (const Observation& o : observations_) count[static_cast<size_t>(o.landmark)] += o.active && o.in_solve;
     landmark_used_.assign(points_.size(), false);
     for (size_t i = 0; i < points_.size(); ++i) landmark_used_[i] = count[i] >= options_.min_observations;
     keyframe_used_.assign(poses_.size(), false);
@@ -220,7 +243,9 @@ class GlobalProblem {
     return any;
   }
 
-  bool Counts(const Observation& o) const { return o.active && landmark_used_[static_cast<size_t>(o.landmark)]; }
+  bool Counts(const Observation& o) const {
+    return o.active && o.in_solve && landmark_used_[static_cast<size_t>(o.landmark)];
+  }
 
   // One Ceres solve over the active observations.
   ceres::Solver::Summary Solve(double function_tolerance, bool inner_iterations, int* components,
@@ -271,10 +296,14 @@ class GlobalProblem {
       const auto pair = TieUsable(tie);
       if (pair && eliminated[static_cast<size_t>(pair->first)]) eliminated[static_cast<size_t>(pair->second)] = false;
     }
+    // "Solves" in global_ba.h: with inner iterations, the eliminated points
+    // (an independent set by construction) are their one group, given
+    // explicitly: Ceres' automatic grouping walks a hash set of addresses.
+    auto inner = std::make_shared<ceres::ParameterBlockOrdering>();
     for (size_t i = 0; i < points_.size(); ++i) {
-      if (landmark_used_[i] && problem.HasParameterBlock(points_[i].data())) {
-        ordering->AddElementToGroup(points_[i].data(), eliminated[i] ? 0 : 1);
-      }
+      if (!landmark_used_[i] || !problem.HasParameterBlock(points_[i].data())) continue;
+      ordering->AddElementToGroup(points_[i].data(), eliminated[i] ? 0 : 1);
+      if (inner_iterations && eliminated[i]) inner->AddElementToGroup(points_[i].data(), 0);
     }
     for (size_t k = 0; k < poses_.size(); ++k) {
       if (keyframe_used_[k]) ordering->AddElementToGroup(poses_[k].data(), 1);
@@ -288,19 +317,8 @@ class GlobalProblem {
         ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ? ceres::SUITE_SPARSE
                                                                                : ceres::EIGEN_SPARSE;
     solver_options.linear_solver_ordering = ordering;
-    if (inner_iterations) {
-      // "Solves" in global_ba.h. The eliminated points, an independent set by
-      // construction, are the one group; given explicitly, since Ceres'
-      // automatic grouping walks a hash set of block addresses.
-      auto inner = std::make_shared<ceres::ParameterBlockOrdering>();
-      for (size_t i = 0; i < points_.size(); ++i) {
-        if (landmark_used_[i] && eliminated[i] && problem.HasParameterBlock(points_[i].data())) {
-          inner->AddElementToGroup(points_[i].data(), 0);
-        }
-      }
-      solver_options.use_inner_iterations = inner->NumElements() > 0;
-      solver_options.inner_iteration_ordering = inner;
-    }
+    solver_options.use_inner_iterations = inner->NumElements() > 0;
+    solver_options.inner_iteration_ordering = inner;
     solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
     solver_options.max_num_iterations = options_.max_iterations;
     solver_options.function_tolerance = function_tolerance;
@@ -357,10 +375,12 @@ class GlobalProblem {
   void SetKneePx(double knee_px) { loss_scale_ = knee_px / options_.reprojection_sigma_px; }
 
   // Deactivates outliers and points behind the camera; returns how many.
-  int RemoveOutliers() {
+  // Those of the solve, or (thinned_only) the long tracks' observations left
+  // out of it, tested against the solved landmarks.
+  int RemoveOutliers(bool thinned_only = false) {
     int removed = 0;
     for (Observation& o : observations_) {
-      if (!Counts(o)) continue;
+      if (!o.active || !landmark_used_[static_cast<size_t>(o.landmark)] || o.in_solve == thinned_only) continue;
       const double e = Error(o);
       if (e < 0.0 || e > options_.outlier_threshold_px) {
         o.active = false;
@@ -603,6 +623,8 @@ void GlobalBaOptions::Check() const {
   CheckPositive("/refine/outlier_threshold_px", outlier_threshold_px);
   CheckAtLeast("/refine/min_observations", min_observations, 2);
   CheckPositive("/refine/function_tolerance", function_tolerance);
+  CheckAtLeast("/refine/thin_tracks_longer_than", thin_tracks_longer_than, 0);
+  CheckAtLeast("/refine/thin_track_stride", thin_track_stride, 1);
   CheckAtLeast("/refine/straight_scale_sigma", straight_scale_sigma, 0.0);
   CheckPositive("/refine/straight_max_rotation_deg", straight_max_rotation_deg);
   CheckAtLeast("/refine/straight_window_keyframes", straight_window_keyframes, 1);
@@ -666,6 +688,7 @@ GlobalBaResult RunGlobalBundleAdjustment(const Rig& rig, const SparseMap& map, b
     if (removed == 0 && !(knee < problem.KneePx()) && !short_solve) break;
     problem.SetKneePx(knee);
   }
+  result.observations_removed += problem.RemoveOutliers(/*thinned_only=*/true);
   result.ran = true;
   result.rms_error_px_after = problem.RmsError(&result.observations_used);
   problem.Write(map, &result);

@@ -148,6 +148,38 @@ TEST(GlobalBaTest, NonOverlappingRigRecoversPosesAndTheScaleAlongTheRoute) {
   EXPECT_LT(p90, 0.03);
 }
 
+// "Long tracks" in global_ba.h: landmarks seen in more than 10 keyframes
+// enter the solves through every other keyframe (and their last). The
+// route comes out as well as with every observation, and the map keeps
+// every observation: the thinned ones are only left out of the solves.
+TEST(GlobalBaTest, ThinnedLongTracksKeepTheRouteAndEveryObservation) {
+  const Scene scene = MakeScene("kitti360_3cam", 0.5, 1.05, 1, 40);
+  const GlobalBaResult full = RunGlobalBundleAdjustment(scene.rig, scene.map, false, GlobalBaOptions());
+  GlobalBaOptions options;
+  options.thin_tracks_longer_than = 10;
+  const GlobalBaResult thin = RunGlobalBundleAdjustment(scene.rig, scene.map, false, options);
+  ASSERT_TRUE(full.ran && thin.ran) << thin.message;
+  std::printf("observations in the solve %d -> %d; route scale %.5f -> %.5f; worst pose error %.4f -> %.4f m\n",
+              full.observations_used, thin.observations_used, RouteScale(full.map, scene.truth),
+              RouteScale(thin.map, scene.truth), MaxPositionError(full.map, scene.truth),
+              MaxPositionError(thin.map, scene.truth));
+  EXPECT_LT(thin.observations_used, full.observations_used * 9 / 10);
+  EXPECT_EQ(thin.observations_removed, 0);
+  size_t observations_full = 0, observations_thin = 0;
+  for (const MapKeyframe& kf : full.map.keyframes) observations_full += kf.observations.size();
+  for (const MapKeyframe& kf : thin.map.keyframes) observations_thin += kf.observations.size();
+  EXPECT_EQ(observations_thin, observations_full);
+  EXPECT_EQ(thin.map.landmarks.size(), full.map.landmarks.size());
+  EXPECT_NEAR(RouteScale(thin.map, scene.truth), 1.0, 0.002);
+  EXPECT_LT(MaxPositionError(thin.map, scene.truth), 0.05);
+
+  // Stride 1 thins nothing: the same solve, bit for bit.
+  options.thin_track_stride = 1;
+  const GlobalBaResult stride_one = RunGlobalBundleAdjustment(scene.rig, scene.map, false, options);
+  EXPECT_EQ(stride_one.final_cost, full.final_cost);
+  EXPECT_EQ(stride_one.observations_used, full.observations_used);
+}
+
 // Every landmark seen by more than one camera is split: the observations of
 // the cameras other than its first observer's become those of a second
 // landmark (id + kDuplicateOffset) that starts where the first does, as a

@@ -134,7 +134,29 @@
 // k3_block_s108, its outliers judged on poses the short first solve had
 // not settled; hence the last solve only. On the 1.18 km route (4
 // cameras, rematch_every 1): 24 LM steps in all instead of 32, ATE 0.208
-// against 0.207 m; its time was not measured on an idle machine.
+// against 0.207 m. With rematch_every 2 (the default since) the route's last
+// solve stopped at 20 with and without them, and the global BA took 91.7 s
+// instead of 81.8 s (the same machine, the same hour, replayed tracks):
+// off.
+//
+// Long tracks (thin_tracks_longer_than, off by default): the Schur
+// elimination's work grows with the square of the keyframes a landmark is
+// seen in, and on the 1.18 km route a few landmarks seen in 25-60 keyframes
+// (the fisheyes keep far points in view) make most of it: the sum of
+// squared track lengths is 6.0 million with 4 cameras. Seen in more than
+// thin_tracks_longer_than keyframes, a landmark enters the solves through
+// every thin_track_stride-th of them and its last (at 10 and 2: 2.2
+// million; 29 % fewer observations). The others stay in the map, are
+// tested as outliers after the last solve and reach the COLMAP model.
+// Consecutive observations of one LK track err together (its drift), so
+// they are not independent measurements either. Measured 2026-11-28 at 10 and 2 against
+// every observation: ATE ratio median 1.03 (0.76-1.17, lower in 7) over the
+// 14 runs of the suite subset, 0.98 (0.88-1.42, lower in 5) over the 8
+// held-out runs; on the route 4 cameras 0.204 -> 0.192 m, 3 cameras 0.201
+// -> 0.182 m (local scale worst 0.34 -> 0.41 %); the 4-camera route's
+// global BA 64.0 -> 48.7 s (-24 %, idle machine, replayed tracks). Off:
+// a quarter of the global BA's time, with the suite's ATE no better in the
+// median and up to 1.42 times worse (results/global_ba_blas.md).
 #pragma once
 
 #include <string>
@@ -172,6 +194,10 @@ struct GlobalBaOptions {
   double outlier_threshold_px = 3.0;  // at virtual_focal_px
   int min_observations = 2;           // per landmark (any camera, any keyframe)
   double function_tolerance = 1e-7;   // Ceres' relative cost change to stop at
+  // "Long tracks" above: landmarks seen in more keyframes than this enter
+  // the solves through every thin_track_stride-th of them and their last. 0: off.
+  int thin_tracks_longer_than = 0;
+  int thin_track_stride = 2;
   // Straight-road scale hold ("Scale on straights" above): the input's
   // log scale profile as a random walk of straight_scale_sigma per
   // sqrt(100 m), over spans of straight_window_keyframes keyframes that
