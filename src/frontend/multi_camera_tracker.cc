@@ -65,15 +65,23 @@ MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat
                                                               options, CreateDetector(options)));
   }
   impl_->pairs = SelectCrossCameraPairs(rig, masks, options.cross_camera);
-  // Each matcher computes its warp map (one Unproject + Project per pixel of
-  // camera a: ~0.2 s for a 1408 x 376 camera) on all threads, row blocks in
-  // parallel (pairs in parallel would leave a thread idle when one pair has
-  // a fisheye of 2 Mpx and the others small pinholes).
+  // Each matcher computes its warp maps (a Project per pixel of camera a
+  // and warp distance) on all threads, row blocks in parallel (pairs in
+  // parallel would leave a thread idle when one pair has a fisheye of 2 Mpx
+  // and the others small pinholes). Camera a's bearing grid (an iterative
+  // undistortion per pixel: most of the cost) is computed once for all its
+  // pairs; pairs are ordered by a, so one grid is alive at a time.
+  std::vector<Eigen::Vector3d> bearings_a;
+  int bearings_camera = -1;
   for (const auto& [a, b] : impl_->pairs) {
+    const Camera& camera_a = rig.cameras[static_cast<size_t>(a)];
+    if (a != bearings_camera) {
+      bearings_a = UnitBearingGrid(camera_a, impl_->threads);
+      bearings_camera = a;
+    }
     const cv::Mat mask_b = masks.empty() ? cv::Mat() : masks[static_cast<size_t>(b)];
-    impl_->matchers.push_back(std::make_unique<CrossCameraMatcher>(a, b, rig.cameras[static_cast<size_t>(a)],
-                                                                   rig.cameras[static_cast<size_t>(b)],
-                                                                   mask_b, options, impl_->threads));
+    impl_->matchers.push_back(std::make_unique<CrossCameraMatcher>(
+        a, b, camera_a, rig.cameras[static_cast<size_t>(b)], mask_b, options, impl_->threads, &bearings_a));
   }
   impl_->rematch_every = options.cross_camera.rematch_every;
   impl_->rematch_below_fraction = options.cross_camera.rematch_below_fraction;

@@ -21,6 +21,8 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "mcvo/dataset/dataset.h"
+#include "mcvo/frontend/camera_tracker.h"
+#include "mcvo/frontend/detector.h"
 #include "mcvo/frontend/multi_camera_tracker.h"
 #include "mcvo/frontend/track_file.h"
 #include "mcvo/synth/renderer.h"
@@ -411,6 +413,56 @@ TEST(CrossCameraTest, SameMatchesWithOneAndTwoThreads) {
   const std::vector<MultiCameraFrame> stereo_two = TrackAll(Stereo(), 2);
   ExpectSameMatches(stereo_one, stereo_two);
   EXPECT_FALSE(stereo_one.back().cross_matches.empty());
+}
+
+// The bearing grid shared by a camera's pairs is Unproject's unit bearing at
+// every pixel (NaN outside the model's domain: the MEI fisheye's corners),
+// and a matcher built on it matches as one that computes its own.
+TEST(CrossCameraTest, SharedBearingGridIsUnprojectAndChangesNoMatch) {
+  const RigSequence& seq = ThreeCam();
+  const Camera& fisheye = seq.rig.cameras[1];
+  const std::vector<Eigen::Vector3d> grid = UnitBearingGrid(fisheye, 2);
+  ASSERT_EQ(grid.size(), static_cast<size_t>(fisheye.width) * static_cast<size_t>(fisheye.height));
+  int outside = 0;
+  for (int y = 0; y < fisheye.height; y += 7) {
+    for (int x = 0; x < fisheye.width; x += 5) {
+      const Eigen::Vector3d& g = grid[static_cast<size_t>(y) * static_cast<size_t>(fisheye.width) + x];
+      const std::optional<Eigen::Vector3d> bearing = fisheye.Unproject(Eigen::Vector2d(x, y));
+      if (!bearing) {
+        EXPECT_TRUE(std::isnan(g.x()) && std::isnan(g.y()) && std::isnan(g.z())) << x << "," << y;
+        ++outside;
+        continue;
+      }
+      EXPECT_EQ(g, bearing->normalized()) << x << "," << y;  // the same arithmetic: bit-equal
+    }
+  }
+  EXPECT_GT(outside, 0);  // the grid covers a fisheye's invalid corners
+  const FrontendOptions options = EveryFrame();
+  const std::vector<Eigen::Vector3d> grid_a = UnitBearingGrid(seq.rig.cameras[0], 1);
+  for (const int b : {1, 2}) {
+    const CrossCameraMatcher own(0, b, seq.rig.cameras[0], seq.rig.cameras[static_cast<size_t>(b)],
+                                 seq.masks[static_cast<size_t>(b)], options, 1);
+    const CrossCameraMatcher shared(0, b, seq.rig.cameras[0], seq.rig.cameras[static_cast<size_t>(b)],
+                                    seq.masks[static_cast<size_t>(b)], options, 2, &grid_a);
+    CameraTracker tracker_a(seq.rig.cameras[0], seq.masks[0], options, CreateDetector(options));
+    CameraTracker tracker_b(seq.rig.cameras[static_cast<size_t>(b)], seq.masks[static_cast<size_t>(b)], options,
+                            CreateDetector(options));
+    CameraFrameResult result_a = tracker_a.Track(seq.frames[0][0]);
+    uint64_t next_id = 1;
+    tracker_a.AssignNewIds(&next_id, &result_a);
+    tracker_b.Track(seq.frames[0][static_cast<size_t>(b)]);
+    CrossCameraPairStats stats_own, stats_shared;
+    const std::vector<CrossCameraMatch> m_own =
+        own.Match(result_a.features, tracker_a.Pyramid(), tracker_b.Pyramid(), &stats_own);
+    const std::vector<CrossCameraMatch> m_shared =
+        shared.Match(result_a.features, tracker_a.Pyramid(), tracker_b.Pyramid(), &stats_shared);
+    ASSERT_GT(m_own.size(), 10u) << "0-" << b;
+    ASSERT_EQ(m_own.size(), m_shared.size()) << "0-" << b;
+    for (size_t k = 0; k < m_own.size(); ++k) {
+      EXPECT_EQ(m_own[k].id_a, m_shared[k].id_a);
+      EXPECT_EQ(m_own[k].pixel_b, m_shared[k].pixel_b);
+    }
+  }
 }
 
 TEST(CrossCameraTest, LimitKeepsTheLongestTracks) {

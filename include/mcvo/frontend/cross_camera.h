@@ -114,14 +114,24 @@ CrossCameraCheck CheckCrossCameraBearings(const Eigen::Vector3d& bearing_a, cons
                                           const Rigid3d& b_from_a, double max_epipolar_sine,
                                           double min_angle_rad, double* depth_a_out = nullptr);
 
+// Camera a's unit bearing Unproject(u).normalized() at every pixel u = (x,
+// y), row-major (index y * width + x); NaN where Unproject fails. The
+// costly part of a warp map (an iterative undistortion per pixel), shared
+// by every pair and warp of the same camera a. Row blocks on `threads`
+// threads; the grid does not depend on their number.
+std::vector<Eigen::Vector3d> UnitBearingGrid(const Camera& a, int threads = 1);
+
 // Matches one camera pair. Thread-safe (const); one per pair.
 class CrossCameraMatcher {
  public:
-  // mask_b: CV_8UC1 of b's size or empty. Each warp map (one Unproject and
-  // Project per pixel of a: 0.1-0.5 s for a camera of 0.5-2 Mpx) is computed
-  // in row blocks on `threads` threads; it does not depend on their number.
+  // mask_b: CV_8UC1 of b's size or empty. The warp maps (one Project per
+  // pixel of a and warp distance, from a's UnitBearingGrid) are computed in
+  // row blocks on `threads` threads; they do not depend on their number.
+  // bearings_a: UnitBearingGrid(a) when the caller shares it between pairs
+  // (it must be a's); null: computed here.
   CrossCameraMatcher(int camera_a, int camera_b, const Camera& a, const Camera& b, const cv::Mat& mask_b,
-                     const FrontendOptions& options, int threads = 1);
+                     const FrontendOptions& options, int threads = 1,
+                     const std::vector<Eigen::Vector3d>* bearings_a = nullptr);
 
   // features_a: camera a's features of the frame (ids assigned); pyramid_a,
   // pyramid_b: CameraTracker::Pyramid() of both (empty when that image is
@@ -177,6 +187,8 @@ class CrossCameraMatcher {
   bool UsableInB(const cv::Point2f& p) const;
   // W_d(u) = Project_b(b_from_a * (d Unproject_a(u))); nullopt outside b's image.
   std::optional<Eigen::Vector2d> Warp(const Eigen::Vector2d& pixel_a, double distance_m) const;
+  // The same from a's unit bearing.
+  std::optional<Eigen::Vector2d> WarpBearing(const Eigen::Vector3d& unit_bearing_a, double distance_m) const;
   // Steps 2-5 through one warp for a's pixels: per pixel the outcome, and
   // when kOk b's pixel and the depth along a's ray.
   void MatchThroughWarp(const WarpMap& warp, const std::vector<cv::Mat>& pyramid_a,
