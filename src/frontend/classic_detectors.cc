@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <numeric>
 
 #include <opencv2/features2d.hpp>
@@ -44,18 +46,62 @@ bool Admissible(float x, float y, const cv::Mat& image, const cv::Mat& mask, int
 }
 
 // Order of the detections: decreasing score, then smaller y, then smaller x,
-// then input order; the first max_candidates of it.
+// then input order (a total order: std::sort gives what a stable sort
+// would); the first max_candidates of it.
 std::vector<int> SortedOrder(const std::vector<Eigen::Vector2f>& pixels, const std::vector<float>& scores,
                              int max_candidates) {
-  std::vector<int> order(pixels.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    if (scores[a] != scores[b]) return scores[a] > scores[b];
-    if (pixels[a].y() != pixels[b].y()) return pixels[a].y() < pixels[b].y();
-    return pixels[a].x() < pixels[b].x();
-  });
-  if (static_cast<int>(order.size()) > max_candidates) order.resize(std::max(max_candidates, 0));
+  struct Key {
+    float score, y, x;
+    int index;
+  };
+  std::vector<Key> keys(pixels.size());
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    keys[i] = Key{scores[i], pixels[i].y(), pixels[i].x(), static_cast<int>(i)};
+  }
+  const auto before = [](const Key& a, const Key& b) {
+    if (a.score != b.score) return a.score > b.score;
+    if (a.y != b.y) return a.y < b.y;
+    if (a.x != b.x) return a.x < b.x;
+    return a.index < b.index;
+  };
+  const size_t keep = std::min(keys.size(), static_cast<size_t>(std::max(max_candidates, 0)));
+  if (keep < keys.size()) {
+    std::partial_sort(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(keep), keys.end(), before);
+    keys.resize(keep);
+  } else {
+    std::sort(keys.begin(), keys.end(), before);
+  }
+  std::vector<int> order(keys.size());
+  for (size_t k = 0; k < keys.size(); ++k) order[k] = keys[k].index;
   return order;
+}
+
+// `order` (detections in SortedOrder's order) cut to max_candidates by
+// (rank within the detection's cell, position in `order`): every cell's
+// best first, then every cell's second, ... Returned in `order`'s order.
+std::vector<int> BalancedPick(const std::vector<int>& order, const std::vector<Eigen::Vector2f>& pixels,
+                              int max_candidates, int width, int height) {
+  if (max_candidates <= 0) return {};
+  if (static_cast<int>(order.size()) <= max_candidates) return order;
+  const CandidateGrid grid(width, height);
+  std::vector<int> seen(static_cast<size_t>(grid.NumCells()), 0);
+  std::vector<int> rank(order.size(), 0);  // per position in order
+  for (size_t k = 0; k < order.size(); ++k) {
+    const Eigen::Vector2f& p = pixels[static_cast<size_t>(order[k])];
+    rank[k] = seen[static_cast<size_t>(grid.Cell(grid.Col(p.x()), grid.Row(p.y())))]++;
+  }
+  // Counting sort of the positions by rank (stable: ties stay in order).
+  const int ranks = *std::max_element(seen.begin(), seen.end());
+  std::vector<int> start(static_cast<size_t>(ranks) + 1, 0);
+  for (int r : rank) ++start[static_cast<size_t>(r) + 1];
+  for (size_t r = 1; r < start.size(); ++r) start[r] += start[r - 1];
+  std::vector<int> by_rank(order.size());
+  for (size_t k = 0; k < order.size(); ++k) by_rank[static_cast<size_t>(start[static_cast<size_t>(rank[k])]++)] = static_cast<int>(k);
+  by_rank.resize(static_cast<size_t>(max_candidates));
+  std::sort(by_rank.begin(), by_rank.end());  // back to order's order
+  std::vector<int> kept(by_rank.size());
+  for (size_t k = 0; k < by_rank.size(); ++k) kept[k] = order[static_cast<size_t>(by_rank[k])];
+  return kept;
 }
 
 }  // namespace
@@ -83,54 +129,62 @@ cv::Rect CandidateGrid::Rect(int col, int row) const {
 std::vector<int> SpatiallyBalancedOrder(const std::vector<Eigen::Vector2f>& pixels, const std::vector<float>& scores,
                                         int max_candidates, int width, int height) {
   MCVO_CHECK(pixels.size() == scores.size());
-  std::vector<int> order = SortedOrder(pixels, scores, static_cast<int>(pixels.size()));
-  if (static_cast<int>(order.size()) <= max_candidates) return order;
-  if (max_candidates <= 0) return {};
-  // Rank of each detection within its cell (0: the cell's best).
-  const CandidateGrid grid(width, height);
-  std::vector<int> seen(static_cast<size_t>(grid.NumCells()), 0);
-  std::vector<int> rank(pixels.size(), 0);
-  for (int i : order) {
-    const int cell = grid.Cell(grid.Col(pixels[i].x()), grid.Row(pixels[i].y()));
-    rank[static_cast<size_t>(i)] = seen[static_cast<size_t>(cell)]++;
-  }
-  // Keep by (rank, global order): every cell's best first, then every cell's
-  // second, ...; stable, so ties keep the score order.
-  std::vector<int> kept = order;
-  std::stable_sort(kept.begin(), kept.end(), [&](int a, int b) { return rank[a] < rank[b]; });
-  kept.resize(static_cast<size_t>(max_candidates));
-  // Back to decreasing score (the Detections contract).
-  std::vector<int> position(pixels.size(), 0);
-  for (size_t k = 0; k < order.size(); ++k) position[static_cast<size_t>(order[k])] = static_cast<int>(k);
-  std::sort(kept.begin(), kept.end(), [&](int a, int b) { return position[a] < position[b]; });
-  return kept;
+  return BalancedPick(SortedOrder(pixels, scores, static_cast<int>(pixels.size())), pixels, max_candidates, width,
+                      height);
 }
 
 std::vector<int> CapWithSpreadExtras(const std::vector<Eigen::Vector2f>& pixels, const std::vector<float>& scores,
                                      int max_candidates, int width, int height) {
   MCVO_CHECK(pixels.size() == scores.size());
-  const std::vector<int> order = SortedOrder(pixels, scores, static_cast<int>(pixels.size()));
   if (max_candidates <= 0) return {};
+  std::vector<int> order = SortedOrder(pixels, scores, static_cast<int>(pixels.size()));
   if (static_cast<int>(order.size()) <= max_candidates) return order;
-  // The rest, spread: SpatiallyBalancedOrder over the detections not in the top.
-  std::vector<Eigen::Vector2f> rest_pixels;
-  std::vector<float> rest_scores;
-  std::vector<int> rest_index;
-  for (size_t k = static_cast<size_t>(max_candidates); k < order.size(); ++k) {
-    rest_pixels.push_back(pixels[static_cast<size_t>(order[k])]);
-    rest_scores.push_back(scores[static_cast<size_t>(order[k])]);
-    rest_index.push_back(order[k]);
+  // The rest, spread (SpatiallyBalancedOrder over the detections not in the
+  // top: they are already in its order). Every extra comes after the top
+  // in the order, so top + extras is in score order.
+  const std::vector<int> rest(order.begin() + max_candidates, order.end());
+  order.resize(static_cast<size_t>(max_candidates));
+  for (int k : BalancedPick(rest, pixels, max_candidates, width, height)) order.push_back(k);
+  return order;
+}
+
+namespace {
+
+}  // namespace
+
+// A float's bits as an unsigned key in the float's order (-0 before +0;
+// not for NaN), and back.
+static uint32_t OrderKey(float value) {
+  uint32_t bits;
+  std::memcpy(&bits, &value, sizeof bits);
+  return (bits & 0x80000000u) != 0 ? ~bits : bits | 0x80000000u;
+}
+
+static float FromOrderKey(uint32_t key) {
+  const uint32_t bits = (key & 0x80000000u) != 0 ? key & 0x7fffffffu : ~key;
+  float value;
+  std::memcpy(&value, &bits, sizeof value);
+  return value;
+}
+
+// The value at position `rank` of `values` sorted (what std::nth_element
+// puts there), by two passes of a 16-bit radix select: O(n), no reordering.
+// histogram: scratch of 65536 counts.
+float RankedValue(const std::vector<float>& values, size_t rank, std::vector<uint32_t>* histogram) {
+  MCVO_CHECK(rank < values.size());
+  histogram->assign(size_t{1} << 16, 0);
+  for (const float v : values) ++(*histogram)[OrderKey(v) >> 16];
+  uint32_t high = 0;
+  size_t below = 0;
+  while (below + (*histogram)[high] <= rank) below += (*histogram)[high++];
+  histogram->assign(size_t{1} << 16, 0);
+  for (const float v : values) {
+    const uint32_t key = OrderKey(v);
+    if ((key >> 16) == high) ++(*histogram)[key & 0xffffu];
   }
-  std::vector<int> kept(order.begin(), order.begin() + max_candidates);
-  for (int k : SpatiallyBalancedOrder(rest_pixels, rest_scores, max_candidates, width, height)) {
-    kept.push_back(rest_index[static_cast<size_t>(k)]);
-  }
-  // Every extra scores at most the top's lowest, so this is the score order
-  // (ties as SortedOrder breaks them: same relation, same inputs).
-  std::vector<int> position(pixels.size(), 0);
-  for (size_t k = 0; k < order.size(); ++k) position[static_cast<size_t>(order[k])] = static_cast<int>(k);
-  std::sort(kept.begin(), kept.end(), [&](int a, int b) { return position[a] < position[b]; });
-  return kept;
+  uint32_t low = 0;
+  while (below + (*histogram)[low] <= rank) below += (*histogram)[low++];
+  return FromOrderKey(high << 16 | low);
 }
 
 namespace {
@@ -196,8 +250,17 @@ class ShiTomasiDetector : public Detector {
   // most kShiTomasiQuality of the image's strongest (the global rule), so a
   // weakly textured region next to strong edges still gets candidates.
   std::vector<float> CellThresholds(const CandidateGrid& grid) {
+    // The image's maximum is the largest cell maximum (the cells tile it).
+    std::vector<double> cell_max(static_cast<size_t>(grid.NumCells()), 0.0);
     double max_response = 0.0;
-    cv::minMaxLoc(response_, nullptr, &max_response);
+    for (int r = 0; r < grid.rows(); ++r) {
+      for (int c = 0; c < grid.cols(); ++c) {
+        double value = 0.0;
+        cv::minMaxLoc(response_(grid.Rect(c, r)), nullptr, &value);
+        cell_max[static_cast<size_t>(grid.Cell(c, r))] = value;
+        max_response = c == 0 && r == 0 ? value : std::max(max_response, value);
+      }
+    }
     const float global = std::max(static_cast<float>(kShiTomasiQuality * max_response), kShiTomasiMinResponse);
     // Median over every second pixel of every second row (deterministic, cheap).
     samples_.clear();
@@ -205,17 +268,12 @@ class ShiTomasiDetector : public Detector {
       const float* row = response_.ptr<float>(y);
       for (int x = 0; x < response_.cols; x += 2) samples_.push_back(row[x]);
     }
-    const size_t mid = samples_.size() / 2;
-    std::nth_element(samples_.begin(), samples_.begin() + static_cast<std::ptrdiff_t>(mid), samples_.end());
-    const float noise_floor = std::max(kShiTomasiNoiseFactor * samples_[mid], kShiTomasiMinResponse);
+    const float noise_floor = std::max(kShiTomasiNoiseFactor * RankedValue(samples_, samples_.size() / 2, &histogram_),
+                                       kShiTomasiMinResponse);
     std::vector<float> thresholds(static_cast<size_t>(grid.NumCells()), global);
-    for (int r = 0; r < grid.rows(); ++r) {
-      for (int c = 0; c < grid.cols(); ++c) {
-        double cell_max = 0.0;
-        cv::minMaxLoc(response_(grid.Rect(c, r)), nullptr, &cell_max);
-        const float local = std::max(static_cast<float>(kShiTomasiQuality * cell_max), noise_floor);
-        thresholds[static_cast<size_t>(grid.Cell(c, r))] = std::min(global, local);
-      }
+    for (size_t cell = 0; cell < thresholds.size(); ++cell) {
+      const float local = std::max(static_cast<float>(kShiTomasiQuality * cell_max[cell]), noise_floor);
+      thresholds[cell] = std::min(global, local);
     }
     return thresholds;
   }
@@ -223,6 +281,7 @@ class ShiTomasiDetector : public Detector {
   cv::Mat response_;             // reused between frames
   std::vector<float> samples_;  // reused between frames
   std::vector<int> column_cells_;  // reused between frames
+  std::vector<uint32_t> histogram_;  // reused between frames
 };
 
 class OrbDetector : public Detector {

@@ -47,6 +47,12 @@ class CandidateGrid {
 std::vector<int> SpatiallyBalancedOrder(const std::vector<Eigen::Vector2f>& pixels, const std::vector<float>& scores,
                                         int max_candidates, int width, int height);
 
+// The value at position `rank` of `values` sorted by <, what
+// std::nth_element puts there (-0 and +0 both compare equal to 0), without
+// reordering `values`: a 16-bit radix select on the floats' bits, two
+// passes. Not for NaN. histogram: scratch, resized here.
+float RankedValue(const std::vector<float>& values, size_t rank, std::vector<uint32_t>* histogram);
+
 // The cap of the Shi-Tomasi and network detectors (Detector::Detect): the
 // best max_candidates by score, as before, plus up to max_candidates more
 // of the others chosen by SpatiallyBalancedOrder; all of them in score

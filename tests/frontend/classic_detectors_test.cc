@@ -1,4 +1,6 @@
 #include <algorithm>
+#include <cmath>
+#include <map>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -221,6 +223,82 @@ TEST(SpatiallyBalancedOrderTest, EveryCellsBestBeforeAnyCellsSecond) {
   // Cap 3: the three best cell winners.
   EXPECT_EQ(internal::SpatiallyBalancedOrder(pixels, scores, 3, 320, 160), (std::vector<int>{0, 13, 12}));
   EXPECT_TRUE(internal::SpatiallyBalancedOrder(pixels, scores, 0, 320, 160).empty());
+}
+
+// The cap as first written (sorts and stable sorts, no shortcuts): the
+// reference the faster one must equal index for index.
+std::vector<int> ReferenceCap(const std::vector<Eigen::Vector2f>& pixels, const std::vector<float>& scores,
+                              int cap, int width, int height) {
+  const auto sorted = [&](std::vector<int> idx) {
+    std::stable_sort(idx.begin(), idx.end(), [&](int a, int b) {
+      if (scores[a] != scores[b]) return scores[a] > scores[b];
+      if (pixels[a].y() != pixels[b].y()) return pixels[a].y() < pixels[b].y();
+      return pixels[a].x() < pixels[b].x();
+    });
+    return idx;
+  };
+  std::vector<int> all(pixels.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  const std::vector<int> order = sorted(all);
+  if (cap <= 0) return {};
+  if (static_cast<int>(order.size()) <= cap) return order;
+  const std::vector<int> rest = sorted(std::vector<int>(order.begin() + cap, order.end()));
+  const internal::CandidateGrid grid(width, height);
+  std::map<int, int> seen;
+  std::map<int, int> rank;
+  for (int i : rest) rank[i] = seen[grid.Cell(grid.Col(pixels[i].x()), grid.Row(pixels[i].y()))]++;
+  std::vector<int> extras = rest;
+  std::stable_sort(extras.begin(), extras.end(), [&](int a, int b) { return rank[a] < rank[b]; });
+  if (static_cast<int>(extras.size()) > cap) extras.resize(static_cast<size_t>(cap));
+  std::vector<int> kept(order.begin(), order.begin() + cap);
+  kept.insert(kept.end(), extras.begin(), extras.end());
+  std::map<int, int> position;
+  for (size_t k = 0; k < order.size(); ++k) position[order[k]] = static_cast<int>(k);
+  std::sort(kept.begin(), kept.end(), [&](int a, int b) { return position[a] < position[b]; });
+  return kept;
+}
+
+TEST(CapWithSpreadExtrasTest, EqualsTheReferenceWithTiesOfScoreAndPlace) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 40; ++trial) {
+    const int n = 1 + static_cast<int>(rng() % 600);
+    std::vector<Eigen::Vector2f> pixels;
+    std::vector<float> scores;
+    for (int i = 0; i < n; ++i) {
+      // Few distinct values: ties of score, of y and of (score, y, x).
+      pixels.emplace_back(static_cast<float>(rng() % 40) * 8.0f, static_cast<float>(rng() % 20) * 8.0f);
+      scores.push_back(static_cast<float>(rng() % 12));
+    }
+    for (const int cap : {0, 1, 7, n / 3, n, n + 5}) {
+      EXPECT_EQ(internal::CapWithSpreadExtras(pixels, scores, cap, 320, 160), ReferenceCap(pixels, scores, cap, 320, 160))
+          << "trial " << trial << " cap " << cap;
+    }
+  }
+}
+
+TEST(RankedValueTest, EqualsNthElement) {
+  std::mt19937 rng(3);
+  std::vector<uint32_t> histogram;
+  for (int trial = 0; trial < 30; ++trial) {
+    const size_t n = 1 + rng() % 5000;
+    std::vector<float> values;
+    for (size_t i = 0; i < n; ++i) {
+      switch (rng() % 5) {
+        case 0: values.push_back(static_cast<float>(rng() % 10)); break;      // ties
+        case 1: values.push_back(-static_cast<float>(rng() % 1000) * 1e-3f); break;  // negatives
+        case 2: values.push_back(rng() % 2 ? 0.0f : -0.0f); break;            // both zeros
+        case 3: values.push_back(std::ldexp(1.0f, static_cast<int>(rng() % 60) - 30)); break;  // wide range
+        default: values.push_back(static_cast<float>(rng()) * 1e-9f); break;
+      }
+    }
+    for (const size_t rank : {size_t{0}, n / 2, n - 1, rng() % n}) {
+      std::vector<float> copy = values;
+      std::nth_element(copy.begin(), copy.begin() + static_cast<std::ptrdiff_t>(rank), copy.end());
+      const std::vector<float> before = values;
+      EXPECT_EQ(internal::RankedValue(values, rank, &histogram), copy[rank]) << "trial " << trial << " rank " << rank;
+      EXPECT_EQ(values, before);  // not reordered
+    }
+  }
 }
 
 TEST(OrbTest, DescriptorsMaskBorderAndOrder) {
