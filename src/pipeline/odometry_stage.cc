@@ -234,7 +234,15 @@ OdometryOutput OdometryStage::Finish() {
   const bool relax_sigma =
       std::isfinite(sigma) && sigma <= fallback && sigma > options_.initializer.max_relative_scale_sigma;
   const OverlapStartOptions& overlap = options_.initializer.overlap_start;
-  const bool overlap_at_once = overlap.enable && overlap.after_failed_windows > 0 && rig_.NumCameras() >= 2;
+  // The overlap start reads cross-camera matches only (initializer.cc
+  // TryOverlapStart): without any in the unposed frames, starting it
+  // earlier changes nothing, and the pass again would repeat the first one
+  // (a rig without overlapping views that never turned: every frame's
+  // initialiser attempt, twice).
+  bool any_cross = false;
+  for (const RigFrameObservations& frame : unposed_) any_cross = any_cross || !frame.cross_camera.empty();
+  const bool overlap_at_once =
+      overlap.enable && overlap.after_failed_windows > 0 && rig_.NumCameras() >= 2 && any_cross;
   if (out_.poses.empty() && !unposed_.empty() && (relax_sigma || overlap_at_once)) {
     // Fallback: the same frames again with the relaxed bound, and the
     // overlap start at the first failed window; the first window that meets
@@ -273,6 +281,7 @@ OdometryOutput OdometryStage::Finish() {
       }
       if (overlap_at_once) entry.note += "; offline fallback: overlap start at the first failed window";
     }
+    rerun.passes = out_.passes + 1;
     out_ = std::move(rerun);
     if (relax_sigma) out_.fallback_sigma = fallback;
   }
@@ -333,12 +342,14 @@ void OdometryStage::MonocularFallback() {
     Consume(&estimator, reverse.get(), one, unposed_frontend_seconds_[k], &rerun);
   }
   FinishEstimator(&estimator, reverse.get(), &rerun);
+  ++out_.passes;
   if (rerun.poses.empty()) {
     MCVO_LOG(kWarning, "run: ", name, " alone posed no frame either");
     return;
   }
   rerun.totals.initializer += out_.totals.initializer;
   rerun.totals.backend += out_.totals.backend;
+  rerun.passes = out_.passes;
   rerun.monocular_camera = camera;
   rerun.monocular_reason = why;
   for (ScaleLogEntry& entry : rerun.scale_log) {

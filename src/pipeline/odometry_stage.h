@@ -55,6 +55,10 @@ struct OdometryOutput {
   // one-camera rig of it, its origin at the camera centre), and why.
   int monocular_camera = -1;
   std::string monocular_reason;
+  // Passes of the frames through an estimator: 1, one more for the
+  // fallback bound / overlap start at once, one more for the monocular
+  // fallback (each counted when it ran, posed or not).
+  int passes = 1;
 };
 
 class OdometryStage {

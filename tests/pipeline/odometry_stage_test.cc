@@ -158,5 +158,45 @@ TEST(OdometryStageTest, FallbackInitialisesWhenNoWindowMeetsTheStrictBound) {
   EXPECT_TRUE(off.poses.empty());
 }
 
+// A drive that never turns: a rig's metric scale is observable only from
+// cross-camera matches. Without any (three cameras, matching off as in
+// config/kitti360_3cam.json) nothing is posed in the first pass, the
+// overlap start at once is not tried (it reads cross-camera matches only:
+// that pass would repeat the first), and the monocular fallback poses the
+// frames: two passes. With them (the 4-camera rig standing still: no
+// motion to initialise from, fewer failed windows than the overlap start
+// waits for) the pass with the overlap start at once poses the frames.
+TEST(OdometryStageTest, OverlapStartAtOnceRunsOnlyWhereCamerasOverlap) {
+  DriveSpec spec;
+  spec.num_frames = 30;
+  spec.step_m = 0.6;
+  spec.straight_frames = 30;
+  spec.turn_frames = 0;
+  const std::vector<Rigid3d> world_from_rig = DriveTrajectory(spec);
+  TrackOptions track_options;
+  track_options.pixel_noise_px = 0.5;
+  track_options.cross_camera = true;
+  const std::vector<Eigen::Vector3d> landmarks = LandmarksAroundPath(world_from_rig, LandmarkOptions());
+
+  const Rig apart = LoadPresetRig("kitti360_3cam");
+  TrackOptions no_matching = track_options;
+  no_matching.cross_camera = false;
+  const SyntheticRigTracks apart_tracks = MakeRigTracks(apart, world_from_rig, landmarks, no_matching);
+  const OdometryOutput mono = RunStage(apart, apart_tracks.frames, Options());
+  EXPECT_EQ(mono.passes, 2);
+  EXPECT_GE(mono.monocular_camera, 0);
+  EXPECT_GE(mono.poses.size(), 25u);
+
+  const Rig overlapping = LoadPresetRig("kitti360");
+  spec.step_m = 0.0;
+  const std::vector<Rigid3d> standing = DriveTrajectory(spec);
+  const SyntheticRigTracks overlapping_tracks = MakeRigTracks(
+      overlapping, standing, LandmarksAroundPath(standing, LandmarkOptions()), track_options);
+  const OdometryOutput metric = RunStage(overlapping, overlapping_tracks.frames, Options());
+  EXPECT_EQ(metric.passes, 2);
+  EXPECT_EQ(metric.monocular_camera, -1);
+  EXPECT_GE(metric.poses.size(), 25u);
+}
+
 }  // namespace
 }  // namespace mcvo::pipeline_internal
