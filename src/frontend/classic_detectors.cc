@@ -96,7 +96,9 @@ std::vector<int> BalancedPick(const std::vector<int>& order, const std::vector<E
   for (int r : rank) ++start[static_cast<size_t>(r) + 1];
   for (size_t r = 1; r < start.size(); ++r) start[r] += start[r - 1];
   std::vector<int> by_rank(order.size());
-  for (size_t k = 0; k < order.size(); ++k) by_rank[static_cast<size_t>(start[static_cast<size_t>(rank[k])]++)] = static_cast<int>(k);
+  for (size_t k = 0; k < order.size(); ++k) {
+    by_rank[static_cast<size_t>(start[static_cast<size_t>(rank[k])]++)] = static_cast<int>(k);
+  }
   by_rank.resize(static_cast<size_t>(max_candidates));
   std::sort(by_rank.begin(), by_rank.end());  // back to order's order
   std::vector<int> kept(by_rank.size());
@@ -150,22 +152,22 @@ std::vector<int> CapWithSpreadExtras(const std::vector<Eigen::Vector2f>& pixels,
 
 namespace {
 
-}  // namespace
-
 // A float's bits as an unsigned key in the float's order (-0 before +0;
 // not for NaN), and back.
-static uint32_t OrderKey(float value) {
+uint32_t OrderKey(float value) {
   uint32_t bits;
   std::memcpy(&bits, &value, sizeof bits);
   return (bits & 0x80000000u) != 0 ? ~bits : bits | 0x80000000u;
 }
 
-static float FromOrderKey(uint32_t key) {
+float FromOrderKey(uint32_t key) {
   const uint32_t bits = (key & 0x80000000u) != 0 ? key & 0x7fffffffu : ~key;
   float value;
   std::memcpy(&value, &bits, sizeof value);
   return value;
 }
+
+}  // namespace
 
 // The value at position `rank` of `values` sorted (what std::nth_element
 // puts there), by two passes of a 16-bit radix select: O(n), no reordering.

@@ -270,7 +270,8 @@ TEST(CapWithSpreadExtrasTest, EqualsTheReferenceWithTiesOfScoreAndPlace) {
       scores.push_back(static_cast<float>(rng() % 12));
     }
     for (const int cap : {0, 1, 7, n / 3, n, n + 5}) {
-      EXPECT_EQ(internal::CapWithSpreadExtras(pixels, scores, cap, 320, 160), ReferenceCap(pixels, scores, cap, 320, 160))
+      EXPECT_EQ(internal::CapWithSpreadExtras(pixels, scores, cap, 320, 160),
+                ReferenceCap(pixels, scores, cap, 320, 160))
           << "trial " << trial << " cap " << cap;
     }
   }
@@ -284,11 +285,21 @@ TEST(RankedValueTest, EqualsNthElement) {
     std::vector<float> values;
     for (size_t i = 0; i < n; ++i) {
       switch (rng() % 5) {
-        case 0: values.push_back(static_cast<float>(rng() % 10)); break;      // ties
-        case 1: values.push_back(-static_cast<float>(rng() % 1000) * 1e-3f); break;  // negatives
-        case 2: values.push_back(rng() % 2 ? 0.0f : -0.0f); break;            // both zeros
-        case 3: values.push_back(std::ldexp(1.0f, static_cast<int>(rng() % 60) - 30)); break;  // wide range
-        default: values.push_back(static_cast<float>(rng()) * 1e-9f); break;
+        case 0:  // ties
+          values.push_back(static_cast<float>(rng() % 10));
+          break;
+        case 1:  // negatives
+          values.push_back(-static_cast<float>(rng() % 1000) * 1e-3f);
+          break;
+        case 2:  // both zeros
+          values.push_back(rng() % 2 ? 0.0f : -0.0f);
+          break;
+        case 3:  // a wide range
+          values.push_back(std::ldexp(1.0f, static_cast<int>(rng() % 60) - 30));
+          break;
+        default:
+          values.push_back(static_cast<float>(rng()) * 1e-9f);
+          break;
       }
     }
     for (const size_t rank : {size_t{0}, n / 2, n - 1, rng() % n}) {

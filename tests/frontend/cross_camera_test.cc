@@ -445,8 +445,8 @@ TEST(CrossCameraTest, SharedBearingGridIsUnprojectAndChangesNoMatch) {
     const CrossCameraMatcher shared(0, b, seq.rig.cameras[0], seq.rig.cameras[static_cast<size_t>(b)],
                                     seq.masks[static_cast<size_t>(b)], options, 2, &grid_a);
     CameraTracker tracker_a(seq.rig.cameras[0], seq.masks[0], options, CreateDetector(options));
-    CameraTracker tracker_b(seq.rig.cameras[static_cast<size_t>(b)], seq.masks[static_cast<size_t>(b)], options,
-                            CreateDetector(options));
+    CameraTracker tracker_b(seq.rig.cameras[static_cast<size_t>(b)], seq.masks[static_cast<size_t>(b)],
+                            options, CreateDetector(options));
     CameraFrameResult result_a = tracker_a.Track(seq.frames[0][0]);
     uint64_t next_id = 1;
     tracker_a.AssignNewIds(&next_id, &result_a);

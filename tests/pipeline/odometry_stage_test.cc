@@ -190,8 +190,8 @@ TEST(OdometryStageTest, OverlapStartAtOnceRunsOnlyWhereCamerasOverlap) {
   const Rig overlapping = LoadPresetRig("kitti360");
   spec.step_m = 0.0;
   const std::vector<Rigid3d> standing = DriveTrajectory(spec);
-  const SyntheticRigTracks overlapping_tracks = MakeRigTracks(
-      overlapping, standing, LandmarksAroundPath(standing, LandmarkOptions()), track_options);
+  const SyntheticRigTracks overlapping_tracks =
+      MakeRigTracks(overlapping, standing, LandmarksAroundPath(standing, LandmarkOptions()), track_options);
   const OdometryOutput metric = RunStage(overlapping, overlapping_tracks.frames, Options());
   EXPECT_EQ(metric.passes, 2);
   EXPECT_EQ(metric.monocular_camera, -1);
