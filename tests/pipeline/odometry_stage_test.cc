@@ -22,6 +22,16 @@ using testing::MakeRigTracks;
 using testing::SyntheticRigTracks;
 using testing::TrackOptions;
 
+// The rig's tracks along `world_from_rig` (0.5 px noise), landmarks around the path.
+SyntheticRigTracks TracksAlong(const Rig& rig, const std::vector<Rigid3d>& world_from_rig,
+                               bool cross_camera) {
+  TrackOptions track_options;
+  track_options.pixel_noise_px = 0.5;
+  track_options.cross_camera = cross_camera;
+  return MakeRigTracks(rig, world_from_rig, LandmarksAroundPath(world_from_rig, LandmarkOptions()),
+                       track_options);
+}
+
 // 20 frames straight, a 90-degree corner over 30 frames, then straight; 0.6 m a frame.
 SyntheticRigTracks Drive(const Rig& rig, int frames, bool cross_camera) {
   DriveSpec spec;
@@ -32,12 +42,7 @@ SyntheticRigTracks Drive(const Rig& rig, int frames, bool cross_camera) {
   spec.turn_frames = 30;
   spec.pitch_roll_wobble_deg = 0.3;
   spec.yaw_wobble_deg = 0.3;
-  const std::vector<Rigid3d> world_from_rig = DriveTrajectory(spec);
-  TrackOptions track_options;
-  track_options.pixel_noise_px = 0.5;
-  track_options.cross_camera = cross_camera;
-  return MakeRigTracks(rig, world_from_rig, LandmarksAroundPath(world_from_rig, LandmarkOptions()),
-                       track_options);
+  return TracksAlong(rig, DriveTrajectory(spec), cross_camera);
 }
 
 PipelineOptions Options() {
@@ -167,32 +172,21 @@ TEST(OdometryStageTest, FallbackInitialisesWhenNoWindowMeetsTheStrictBound) {
 // motion to initialise from, fewer failed windows than the overlap start
 // waits for) the pass with the overlap start at once poses the frames.
 TEST(OdometryStageTest, OverlapStartAtOnceRunsOnlyWhereCamerasOverlap) {
-  DriveSpec spec;
-  spec.num_frames = 30;
-  spec.step_m = 0.6;
-  spec.straight_frames = 30;
-  spec.turn_frames = 0;
-  const std::vector<Rigid3d> world_from_rig = DriveTrajectory(spec);
-  TrackOptions track_options;
-  track_options.pixel_noise_px = 0.5;
-  track_options.cross_camera = true;
-  const std::vector<Eigen::Vector3d> landmarks = LandmarksAroundPath(world_from_rig, LandmarkOptions());
-
+  DriveSpec straight;  // no turn, no wobble: the scale of a rig without overlap is not observable
+  straight.num_frames = 30;
+  straight.step_m = 0.6;
   const Rig apart = LoadPresetRig("kitti360_3cam");
-  TrackOptions no_matching = track_options;
-  no_matching.cross_camera = false;
-  const SyntheticRigTracks apart_tracks = MakeRigTracks(apart, world_from_rig, landmarks, no_matching);
-  const OdometryOutput mono = RunStage(apart, apart_tracks.frames, Options());
+  const OdometryOutput mono =
+      RunStage(apart, TracksAlong(apart, DriveTrajectory(straight), false).frames, Options());
   EXPECT_EQ(mono.passes, 2);
   EXPECT_GE(mono.monocular_camera, 0);
   EXPECT_GE(mono.poses.size(), 25u);
 
   const Rig overlapping = LoadPresetRig("kitti360");
-  spec.step_m = 0.0;
-  const std::vector<Rigid3d> standing = DriveTrajectory(spec);
-  const SyntheticRigTracks overlapping_tracks =
-      MakeRigTracks(overlapping, standing, LandmarksAroundPath(standing, LandmarkOptions()), track_options);
-  const OdometryOutput metric = RunStage(overlapping, overlapping_tracks.frames, Options());
+  DriveSpec still = straight;  // standing
+  still.step_m = 0.0;
+  const OdometryOutput metric =
+      RunStage(overlapping, TracksAlong(overlapping, DriveTrajectory(still), true).frames, Options());
   EXPECT_EQ(metric.passes, 2);
   EXPECT_EQ(metric.monocular_camera, -1);
   EXPECT_GE(metric.poses.size(), 25u);
