@@ -233,6 +233,10 @@ struct Estimator::Impl {
     scale.filter().Start(init_sigma, last_pose->translation);
     entry.scale_sigma = init.source == ScaleSource::kArbitrary ? 0.0 : init_sigma;
     entry.note = ScaleSourceNote(init, rig);
+    if (init.attempts > 0 || init.skipped_windows > 0) {
+      entry.note += StrCat("; after ", init.attempts, " rejected windows and ", init.skipped_windows,
+                           " not attempted (initializer.max_skipped_windows)");
+    }
     scale_log.push_back(std::move(entry));
     init_buffer.clear();
     state = EstimatorState::kTracking;

@@ -146,6 +146,7 @@ void Visit(V& v, InitializerOptions* o) {
   v.Field("max_relative_scale_sigma", &o->max_relative_scale_sigma);
   v.Field("max_relative_scale_sigma_fallback", &o->max_relative_scale_sigma_fallback);
   v.Field("monocular_fallback", &o->monocular_fallback);
+  v.Field("max_skipped_windows", &o->max_skipped_windows);
   v.Field("max_rig_ba_iterations", &o->max_rig_ba_iterations);
   v.Section("sfm", &o->sfm);
   v.Section("consistency", &o->consistency);

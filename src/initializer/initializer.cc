@@ -2,7 +2,6 @@
 #include "mcvo/initializer/initializer.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <deque>
@@ -18,6 +17,7 @@
 
 #include "bearing_residual.h"
 #include "cross_camera_scale.h"
+#include "scale_screen.h"
 #include "mcvo/initializer/overlap_start.h"
 #include "mcvo/initializer/rig_window_ba.h"
 #include "mcvo/util/error.h"
@@ -30,6 +30,10 @@ namespace {
 using initializer_internal::AngleBetween;
 using initializer_internal::BearingsById;
 using initializer_internal::CrossCameraMeasurements;
+using initializer_internal::DropCamera;
+using initializer_internal::RelativeSigmas;
+using initializer_internal::ScaleScreen;
+using initializer_internal::ScreenScale;
 using initializer_internal::RobustSpread;
 
 bool Missing(const RigFrameObservations& frame, int camera) {
@@ -44,27 +48,6 @@ struct CameraParallax {
   bool missing = false;
   bool passes = false;
 };
-
-// "camera 3" in a rig-scale reason -> the name of the rig camera behind solve index 3.
-std::string NameCameras(std::string text, const std::vector<int>& solve_to_rig, const Rig& rig) {
-  for (int k = static_cast<int>(solve_to_rig.size()) - 1; k >= 0; --k) {
-    const std::string from = StrCat("camera ", k);
-    const std::string to =
-        StrCat("camera ", rig.cameras[static_cast<size_t>(solve_to_rig[static_cast<size_t>(k)])].name);
-    size_t pos = text.find(from);
-    while (pos != std::string::npos) {
-      const size_t end = pos + from.size();
-      if (end < text.size() &&
-          std::isdigit(static_cast<unsigned char>(text[end]))) {  // "camera 12" for k = 1
-        pos = text.find(from, end);
-        continue;
-      }
-      text.replace(pos, from.size(), to);
-      pos = text.find(from, pos + to.size());
-    }
-  }
-  return text;
-}
 
 }  // namespace
 
@@ -97,6 +80,18 @@ struct Initializer::Impl {
     attempts = 0;
     failed_windows = 0;
     blocked_windows = 0;
+    windows_to_skip = 0;
+    skipped_windows = 0;
+  }
+
+  // initializer.h max_skipped_windows: after the linear screen rejected a
+  // window with a best scale sigma `ratio` times its bound, floor(log2 ratio)
+  // windows, at most max_skipped_windows (all for infinity: no camera had a
+  // positive scale); 0 for any other failure (ratio 0).
+  int WindowsToSkip(double ratio) const {
+    if (!(ratio >= 2.0)) return 0;
+    if (!std::isfinite(ratio)) return options.max_skipped_windows;
+    return std::min(options.max_skipped_windows, static_cast<int>(std::floor(std::log2(ratio))));
   }
 
   int NumCameras() const { return rig.NumCameras(); }
@@ -137,8 +132,21 @@ struct Initializer::Impl {
     std::vector<bool> passing;
     std::optional<InitializationResult> result;
     if (Trigger(&anchor, &passing)) {
-      result = Initialise(anchor, passing);
-      if (!result) ++attempts;
+      if (windows_to_skip > 0) {
+        --windows_to_skip;
+        ++skipped_windows;
+        reason = StrCat(skip_reason, "; window not attempted",
+                        windows_to_skip > 0 ? StrCat(", ", windows_to_skip, " more") : std::string(),
+                        " (initializer.max_skipped_windows)");
+      } else {
+        poor_scale_ratio = 0.0;
+        result = Initialise(anchor, passing);
+        if (!result) {
+          ++attempts;
+          windows_to_skip = WindowsToSkip(poor_scale_ratio);
+          skip_reason = reason;
+        }
+      }
     }
     if (!result) result = TryOverlapStart();
     if (!result) return std::nullopt;
@@ -164,6 +172,7 @@ struct Initializer::Impl {
       return std::nullopt;
     }
     result->attempts = attempts;
+    result->skipped_windows = skipped_windows;
     return result;
   }
 
@@ -288,116 +297,17 @@ struct Initializer::Impl {
     return results;
   }
 
-  // Step 4 acceptance. The combined solve runs without its per-camera
-  // uncertainty test; here the window is rejected unless the best
-  // determined camera's scale has a relative std of at most
-  // kLinearGateFactor x max_relative_scale_sigma. That is a screen only (it
-  // spares the rig BA hopeless windows): the rig BA, which uses every
-  // observation at once, estimates the scale and its uncertainty again and
-  // applies max_relative_scale_sigma itself (with the BA off, the principal
-  // camera's linear sigma must pass it). A camera whose scale is not
-  // positive or less certain than kMaxCameraRelativeSigma is left out of the
-  // result (its landmarks would start too far off) and the solve repeated.
+  // Step 4 (scale_screen.h), recording a rejection for the offline fallback
+  // and for max_skipped_windows.
   bool SolveScale(std::vector<int>* used, std::vector<CameraSfmResult>* sfm_of_used,
                   std::vector<CameraWindowTrack>* tracks, std::vector<ScaleMeasurement>* measurements,
                   InitializationResult* result) {
-    constexpr double kMaxCameraRelativeSigma = 0.1;
-    constexpr double kLinearGateFactor = 3.0;
-    const double gate =
-        (options.max_rig_ba_iterations > 0 ? kLinearGateFactor : 1.0) * options.max_relative_scale_sigma;
-    RigScaleOptions scale_options;
-    scale_options.min_singular_value_ratio = options.min_singular_value_ratio;
-    scale_options.max_rms_residual_m = options.max_rms_residual_m;
-    scale_options.max_relative_scale_sigma = std::numeric_limits<double>::max();  // tested here, per camera
-    scale_options.estimate_measurement_sigma = false;  // their sigmas come from their own scatter
-    auto describe = [&](const std::string& text) {
-      return StrCat(NameCameras(text, *used, rig), " [", used->size(), " cameras, ",
-                    result->cross_camera_matches, " cross-camera matches]");
-    };
-    for (;;) {
-      if (used->size() < 2 && measurements->empty()) {
-        reason =
-            StrCat("scale not observable: one camera (", rig.cameras[static_cast<size_t>(used->front())].name,
-                   ") and no cross-camera observation");
-        return false;
-      }
-      RigScaleResult solve = SolveRigScalesCombined(*tracks, *measurements, scale_options);
-      if (solve.solution.empty()) {
-        reason = describe(solve.reason);
-        return false;
-      }
-      const std::vector<double> relative = RelativeSigmas(solve);
-      const size_t best =
-          static_cast<size_t>(std::min_element(relative.begin(), relative.end()) - relative.begin());
-      const size_t worst =
-          static_cast<size_t>(std::max_element(relative.begin(), relative.end()) - relative.begin());
-      if (!(relative[best] <= gate)) {
-        // The bound that would have let this window through the screen (for the offline fallback).
-        if (std::isfinite(relative[best])) {
-          smallest_rejected_sigma =
-              std::min(smallest_rejected_sigma, relative[best] * options.max_relative_scale_sigma / gate);
-        }
-        reason =
-            describe(std::isfinite(relative[best])
-                         ? StrCat("scale poorly observable: best determined camera ", best,
-                                  " has a scale sigma of ", FormatFixed(100.0 * relative[best], 2), " % > ",
-                                  FormatFixed(100.0 * gate, 2), " % (linear solve)")
-                         : StrCat("scale poorly observable: no camera has a positive scale (linear solve)"));
-        return false;
-      }
-      if (!(relative[worst] <= kMaxCameraRelativeSigma)) {
-        DropCamera(worst, used, sfm_of_used, tracks, measurements);
-        continue;
-      }
-      if (!solve.observable) {
-        reason = describe(solve.reason);
-        return false;
-      }
-      result->rig_scale = solve;
-      break;
-    }
-    if (measurements->empty()) {
-      result->source = ScaleSource::kRigRotation;
-    } else {
-      // Combined when the rig rotation alone would also have passed.
-      bool rotation_alone = false;
-      if (used->size() >= 2) {
-        const RigScaleResult rig_only = SolveRigScalesCombined(*tracks, {}, scale_options);
-        if (!rig_only.solution.empty() && rig_only.observable) {
-          const std::vector<double> relative = RelativeSigmas(rig_only);
-          rotation_alone =
-              *std::min_element(relative.begin(), relative.end()) <= options.max_relative_scale_sigma;
-        }
-      }
-      result->source = rotation_alone ? ScaleSource::kCombined : ScaleSource::kCrossCamera;
-    }
-    return true;
-  }
-
-  // Leaves camera k (an index into used) out of the solve.
-  static void DropCamera(size_t k, std::vector<int>* used, std::vector<CameraSfmResult>* sfm_of_used,
-                         std::vector<CameraWindowTrack>* tracks,
-                         std::vector<ScaleMeasurement>* measurements) {
-    used->erase(used->begin() + static_cast<std::ptrdiff_t>(k));
-    sfm_of_used->erase(sfm_of_used->begin() + static_cast<std::ptrdiff_t>(k));
-    tracks->erase(tracks->begin() + static_cast<std::ptrdiff_t>(k));
-    std::vector<ScaleMeasurement> kept;
-    for (ScaleMeasurement m : *measurements) {
-      if (m.camera == static_cast<int>(k)) continue;
-      if (m.camera > static_cast<int>(k)) --m.camera;
-      kept.push_back(m);
-    }
-    measurements->swap(kept);
-  }
-
-  // sigma_k / s_k per camera of a solution (infinity for a scale that is not positive).
-  static std::vector<double> RelativeSigmas(const RigScaleResult& solve) {
-    std::vector<double> relative(solve.solution.size());
-    for (size_t k = 0; k < relative.size(); ++k) {
-      relative[k] = solve.solution[k] > 0.0 ? solve.solution_sigmas[k] / solve.solution[k]
-                                            : std::numeric_limits<double>::infinity();
-    }
-    return relative;
+    const ScaleScreen screen = ScreenScale(rig, options, used, sfm_of_used, tracks, measurements, result);
+    if (screen.ok) return true;
+    reason = screen.reason;
+    poor_scale_ratio = screen.poor_ratio;
+    smallest_rejected_sigma = std::min(smallest_rejected_sigma, screen.passing_bound);
+    return false;
   }
 
   // Step 6: the used camera that disagrees most with the rig solution
@@ -496,6 +406,7 @@ struct Initializer::Impl {
       size_t inconsistent = used.size();
       if (SolveMetricWindow(anchor, used, sfm_of_used, &result, &inconsistent)) {
         result.attempts = attempts;
+        result.skipped_windows = skipped_windows;
         return result;
       }
       if (inconsistent >= used.size()) return std::nullopt;  // reason set
@@ -517,6 +428,7 @@ struct Initializer::Impl {
     size_t inconsistent = used.size();
     if (!SolveMetricWindow(anchor, used, sfm_of_used, &result, &inconsistent)) return std::nullopt;
     result.attempts = attempts;
+    result.skipped_windows = skipped_windows;
     return result;
   }
 
@@ -665,6 +577,13 @@ struct Initializer::Impl {
   // the trigger or its SfM), since Reset(): Relaxed().
   int blocked_windows = 0;
   double smallest_rejected_sigma = std::numeric_limits<double>::infinity();
+  // max_skipped_windows: the full windows still to pass over, those passed
+  // over since Reset(), the reason of the attempt that set them, and the
+  // linear screen's best sigma over its bound in the current attempt.
+  int windows_to_skip = 0;
+  int skipped_windows = 0;
+  std::string skip_reason;
+  double poor_scale_ratio = 0.0;
 };
 
 Initializer::Initializer(const Rig& rig, const InitializerOptions& options, int threads)

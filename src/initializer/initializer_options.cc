@@ -30,6 +30,7 @@ void InitializerOptions::Check() const {
   CheckPositive("/initializer/max_rms_residual_m", max_rms_residual_m);
   CheckPositive("/initializer/max_relative_scale_sigma", max_relative_scale_sigma);
   CheckAtLeast("/initializer/max_relative_scale_sigma_fallback", max_relative_scale_sigma_fallback, 0.0);
+  CheckAtLeast("/initializer/max_skipped_windows", max_skipped_windows, 0);
   CheckAtLeast("/initializer/max_rig_ba_iterations", max_rig_ba_iterations, 0);
   CheckPositive("/initializer/sfm/ransac_threshold_px", sfm.ransac_threshold_px);
   CheckPositive("/initializer/sfm/focal_px", sfm.focal_px);

@@ -168,6 +168,50 @@ TEST(Initializer, PureTranslationWithoutOverlapRefuses) {
   }
 }
 
+// max_skipped_windows: a rig without overlap drives straight (every window's
+// scale far from observable), then turns sharply. Passing over the windows
+// far from the bound saves attempts; the turn still initialises, at most
+// max_skipped_windows frames after the first window that would have, with
+// the same accuracy. 0 attempts every window.
+TEST(Initializer, WindowsFarFromTheScaleBoundAreNotAttempted) {
+  const Rig rig = LoadPresetRig("kitti360_3cam");
+  DriveSpec spec;
+  spec.num_frames = 40;
+  spec.step_m = 0.5;
+  spec.straight_frames = 20;
+  spec.turn_deg_per_frame = 7.5;
+  for (uint64_t seed = 1; seed <= 2; ++seed) {
+    const SyntheticRigTracks tracks = Tracks(rig, DriveTrajectory(spec), 0.5, seed, /*cross_camera=*/false);
+    InitializerOptions every;
+    every.max_skipped_windows = 0;
+    const Outcome all = RunInitializer(rig, tracks, every);
+    const Outcome some = RunInitializer(rig, tracks, InitializerOptions());
+    std::printf("kitti360_3cam straight then turning, seed %d: every window: %s; skipping: %s, %d not attempted\n",
+                static_cast<int>(seed), Describe(all, tracks).c_str(), Describe(some, tracks).c_str(),
+                some.result ? some.result->skipped_windows : -1);
+    ASSERT_TRUE(all.result) << all.reason;
+    ASSERT_TRUE(some.result) << some.reason;
+    EXPECT_EQ(all.result->skipped_windows, 0);
+    // The straight windows were rejected (the turn starts at frame 20).
+    EXPECT_GE(all.result->attempts, 10);
+    EXPECT_GT(some.result->skipped_windows, 0);
+    EXPECT_LT(some.result->attempts, all.result->attempts);
+    // Every full window is either attempted or passed over.
+    EXPECT_EQ(some.result->attempts + some.result->skipped_windows + 1, some.frames_fed - 9);
+    EXPECT_GE(some.frames_fed, all.frames_fed);
+    EXPECT_LE(some.frames_fed, all.frames_fed + InitializerOptions().max_skipped_windows);
+    EXPECT_LT(std::abs(ScaleError(*some.result, tracks)), 0.01);
+    EXPECT_LE(some.result->relative_scale_sigma, InitializerOptions().max_relative_scale_sigma);
+    int not_attempted = 0;
+    for (const std::string& r : some.reasons) {
+      if (r.find("window not attempted") == std::string::npos) continue;
+      ++not_attempted;
+      EXPECT_NE(r.find("scale poorly observable"), std::string::npos) << r;
+    }
+    EXPECT_EQ(not_attempted, some.result->skipped_windows);
+  }
+}
+
 // The stereo pair's 0.6 m baseline fixes the scale through cross-camera
 // observations, on a straight drive (where rotation gives nothing) and in a
 // turn (both sources combined). Measured: 0.02-0.2 % at 1 px.

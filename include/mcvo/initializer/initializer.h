@@ -154,6 +154,17 @@ struct InitializerOptions {
   // no cameras overlap), it is run again with its best-tracked camera alone,
   // as monocular odometry at an arbitrary scale (odometry_stage.cc).
   bool monocular_fallback = true;
+  // Windows passed over after a poorly observable scale: when the linear
+  // scale screen (step 4) rejects a window whose best camera's scale sigma
+  // is R >= 2 times the screen's bound, the next floor(log2 R) full windows,
+  // at most this many, are not attempted (all of them when no camera had a
+  // positive scale). The sigma falls about as fast as the rotation in the
+  // window grows, so a window far from the bound has neighbours far from it
+  // too; each attempt is a per-camera SfM and a scale solve, the largest
+  // cost of a rig without overlap that drives straight. Offline the reverse
+  // pass poses the frames before the first initialised window. 0: every
+  // window is attempted.
+  int max_skipped_windows = 2;
   // Rig window bundle adjustment after the scale solve (rig_window_ba.h); 0: off.
   int max_rig_ba_iterations = 50;
   CameraSfmOptions sfm;
@@ -198,6 +209,8 @@ struct InitializationResult {
   // Earlier windows that passed the trigger but were rejected (SfM, scale or
   // its uncertainty) since the last Reset().
   int attempts = 0;
+  // Full windows not attempted since the last Reset() (max_skipped_windows).
+  int skipped_windows = 0;
 };
 
 class Initializer {
