@@ -236,7 +236,8 @@ class Initializer {
   // The smallest scale std of the windows rejected only because it exceeded
   // max_relative_scale_sigma (the rig BA's; for a window the linear screen
   // of step 4 stopped, the bound that would have let it through), since
-  // construction (Reset() keeps it); infinity when none was. Decides whether the offline fallback
+  // construction (Reset() keeps it), over the windows attempted (not those
+  // max_skipped_windows passed over); infinity when none was. Decides whether the offline fallback
   // (max_relative_scale_sigma_fallback) can help.
   double SmallestRejectedScaleSigma() const;
 
