@@ -87,7 +87,7 @@ struct Initializer::Impl {
   // initializer.h max_skipped_windows: after the linear screen rejected a
   // window with a best scale sigma `ratio` times its bound, floor(log2 ratio)
   // windows, at most max_skipped_windows (all for infinity: no camera had a
-  // positive scale); 0 for any other failure (ratio 0).
+  // positive scale); 0 for a rejection of another kind (ratio 0).
   int WindowsToSkip(double ratio) const {
     if (!(ratio >= 2.0)) return 0;
     if (!std::isfinite(ratio)) return options.max_skipped_windows;
@@ -139,11 +139,9 @@ struct Initializer::Impl {
                         windows_to_skip > 0 ? StrCat(", ", windows_to_skip, " more") : std::string(),
                         " (initializer.max_skipped_windows)");
       } else {
-        poor_scale_ratio = 0.0;
-        result = Initialise(anchor, passing);
+        result = Initialise(anchor, passing);  // a poor scale sets windows_to_skip
         if (!result) {
           ++attempts;
-          windows_to_skip = WindowsToSkip(poor_scale_ratio);
           skip_reason = reason;
         }
       }
@@ -298,14 +296,15 @@ struct Initializer::Impl {
   }
 
   // Step 4 (scale_screen.h), recording a rejection for the offline fallback
-  // and for max_skipped_windows.
+  // and setting the windows that max_skipped_windows passes over after it
+  // (a rejection here always ends the attempt).
   bool SolveScale(std::vector<int>* used, std::vector<CameraSfmResult>* sfm_of_used,
                   std::vector<CameraWindowTrack>* tracks, std::vector<ScaleMeasurement>* measurements,
                   InitializationResult* result) {
     const ScaleScreen screen = ScreenScale(rig, options, used, sfm_of_used, tracks, measurements, result);
     if (screen.ok) return true;
     reason = screen.reason;
-    poor_scale_ratio = screen.poor_ratio;
+    windows_to_skip = WindowsToSkip(screen.poor_ratio);
     smallest_rejected_sigma = std::min(smallest_rejected_sigma, screen.passing_bound);
     return false;
   }
@@ -577,13 +576,12 @@ struct Initializer::Impl {
   // the trigger or its SfM), since Reset(): Relaxed().
   int blocked_windows = 0;
   double smallest_rejected_sigma = std::numeric_limits<double>::infinity();
-  // max_skipped_windows: the full windows still to pass over, those passed
-  // over since Reset(), the reason of the attempt that set them, and the
-  // linear screen's best sigma over its bound in the current attempt.
+  // max_skipped_windows: the full windows still to pass over (set by
+  // SolveScale), those passed over since Reset(), and the reason of the
+  // attempt that set them.
   int windows_to_skip = 0;
   int skipped_windows = 0;
   std::string skip_reason;
-  double poor_scale_ratio = 0.0;
 };
 
 Initializer::Initializer(const Rig& rig, const InitializerOptions& options, int threads)
