@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 
+#include "mcvo/geometry/so3.h"
 #include "mcvo/util/error.h"
 
 namespace mcvo {
@@ -104,34 +105,6 @@ struct SameFrameFunctor {
 using Matrix23 = Eigen::Matrix<double, 2, 3>;
 using PoseJacobian = Eigen::Matrix<double, 2, kPoseParamSize, Eigen::RowMajor>;
 
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
-}
-
-// d (q * v) / d (qx, qy, qz, qw) of Eigen's quaternion-vector product,
-//   q * v = v + 2 w (q_v x v) + 2 q_v x (q_v x v),
-// exactly as written (so also off the unit sphere, like the Jets see it):
-//   d / d w   = 2 q_v x v,
-//   d / d q_v = 2 (-w [v]x + (q_v . v) I + q_v v^T - 2 v q_v^T).
-Eigen::Matrix<double, 3, 4> RotationJacobian(const Eigen::Quaterniond& q, const Eigen::Vector3d& v) {
-  const Eigen::Vector3d qv = q.vec();
-  Eigen::Matrix<double, 3, 4> jacobian;
-  jacobian.leftCols<3>() = 2.0 * (-q.w() * Skew(v) + qv.dot(v) * Eigen::Matrix3d::Identity() +
-                                  qv * v.transpose() - 2.0 * v * qv.transpose());
-  jacobian.col(3) = 2.0 * qv.cross(v);
-  return jacobian;
-}
-
-// d (q^* * v) / d (qx, qy, qz, qw): the product with the conjugate (w, -q_v),
-// so the q_v columns change sign.
-Eigen::Matrix<double, 3, 4> InverseRotationJacobian(const Eigen::Quaterniond& q, const Eigen::Vector3d& v) {
-  Eigen::Matrix<double, 3, 4> jacobian = RotationJacobian(q.conjugate(), v);
-  jacobian.leftCols<3>() = -jacobian.leftCols<3>();
-  return jacobian;
-}
-
 // A pose or extrinsic block {t, q} (Eigen order) with its rotation matrix.
 // Eigen's toRotationMatrix is the matrix of the product q * v above, also
 // for a quaternion that is unit only to rounding.
@@ -178,8 +151,9 @@ struct JacobianOutputs {
 // (p3 = p1 without poses: same frame). With J = d r / d p = s B (I - u u^T)
 // / |p| and J3 = J R_eo^T, J2 = J3 R_o^T, J1 = J2 R_a (J1 = J3 without
 // poses), the translations enter with -rho J3 (t_eo), -rho J2 (t_o),
-// rho J2 (t_a), rho J1 (t_ea); the quaternions through RotationJacobian /
-// InverseRotationJacobian of the vector each rotation acts on; and
+// rho J2 (t_a), rho J1 (t_ea); the quaternions through
+// QuaternionRotateJacobian / QuaternionInverseRotateJacobian (geometry/so3.h)
+// of the vector each rotation acts on; and
 // d r / d rho = J1 t_ea + J2 (t_a - t_o) - J3 t_eo.
 bool EvaluateAnalytic(const BearingResidualCore& core, const RigidParams* pose_anchor,
                       const RigidParams* pose_obs, const RigidParams& ext_anchor, const RigidParams& ext_obs,
@@ -211,22 +185,22 @@ bool EvaluateAnalytic(const BearingResidualCore& core, const RigidParams* pose_a
   if (out.ext_obs != nullptr) {
     Eigen::Map<PoseJacobian> j(out.ext_obs);
     j.leftCols<3>() = -rho * j_p3;
-    j.rightCols<4>() = j_p * InverseRotationJacobian(ext_obs.q, w_ext);
+    j.rightCols<4>() = j_p * QuaternionInverseRotateJacobian(ext_obs.q, w_ext);
   }
   if (pose_anchor != nullptr && out.pose_obs != nullptr) {
     Eigen::Map<PoseJacobian> j(out.pose_obs);
     j.leftCols<3>() = -rho * j_p2;
-    j.rightCols<4>() = j_p3 * InverseRotationJacobian(pose_obs->q, w_obs);
+    j.rightCols<4>() = j_p3 * QuaternionInverseRotateJacobian(pose_obs->q, w_obs);
   }
   if (pose_anchor != nullptr && out.pose_anchor != nullptr) {
     Eigen::Map<PoseJacobian> j(out.pose_anchor);
     j.leftCols<3>() = rho * j_p2;
-    j.rightCols<4>() = j_p2 * RotationJacobian(pose_anchor->q, p1);
+    j.rightCols<4>() = j_p2 * QuaternionRotateJacobian(pose_anchor->q, p1);
   }
   if (out.ext_anchor != nullptr) {
     Eigen::Map<PoseJacobian> j(out.ext_anchor);
     j.leftCols<3>() = rho * j_p1;
-    j.rightCols<4>() = j_p1 * RotationJacobian(ext_anchor.q, core.anchor_bearing);
+    j.rightCols<4>() = j_p1 * QuaternionRotateJacobian(ext_anchor.q, core.anchor_bearing);
   }
   if (out.inverse_depth != nullptr) {
     Eigen::Vector2d d = j_p1 * ext_anchor.translation - j_p3 * ext_obs.translation;
@@ -484,7 +458,7 @@ namespace {
 //   w = X - t,  p_rig = R^T w,  p = R_c p_rig + t_c   (R_c, t_c: cam_from_rig),
 // r = s B (u - b), u = p / |p|. With J = s B (I - u u^T) / |p| and
 // J_rig = J R_c: d r / d X = J_rig R^T, d r / d t = -J_rig R^T, d r / d q =
-// J_rig InverseRotationJacobian(q, w).
+// J_rig QuaternionInverseRotateJacobian(q, w).
 class WorldPointFactor final : public ceres::SizedCostFunction<2, kPoseParamSize, 3> {
  public:
   WorldPointFactor(const Eigen::Vector3d& observed_bearing, const Rigid3d& cam_from_rig, double sqrt_information)
@@ -514,7 +488,7 @@ class WorldPointFactor final : public ceres::SizedCostFunction<2, kPoseParamSize
     if (j_pose != nullptr) {
       Eigen::Map<PoseJacobian> j(j_pose);
       j.leftCols<3>() = -j_world;
-      j.rightCols<4>() = j_rig * InverseRotationJacobian(pose.q, w);
+      j.rightCols<4>() = j_rig * QuaternionInverseRotateJacobian(pose.q, w);
     }
     if (j_point != nullptr) {
       Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> j(j_point);

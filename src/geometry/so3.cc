@@ -93,4 +93,19 @@ Eigen::Matrix3d So3LeftJacobianInverse(const Eigen::Vector3d& phi) {
   return Eigen::Matrix3d::Identity() - 0.5 * hat + c * hat2;
 }
 
+Eigen::Matrix<double, 3, 4> QuaternionRotateJacobian(const Eigen::Quaterniond& q, const Eigen::Vector3d& v) {
+  const Eigen::Vector3d qv = q.vec();
+  Eigen::Matrix<double, 3, 4> jacobian;
+  jacobian.leftCols<3>() =
+      2.0 * (-q.w() * Hat(v) + qv.dot(v) * Eigen::Matrix3d::Identity() + qv * v.transpose() - 2.0 * v * qv.transpose());
+  jacobian.col(3) = 2.0 * qv.cross(v);
+  return jacobian;
+}
+
+Eigen::Matrix<double, 3, 4> QuaternionInverseRotateJacobian(const Eigen::Quaterniond& q, const Eigen::Vector3d& v) {
+  Eigen::Matrix<double, 3, 4> jacobian = QuaternionRotateJacobian(q.conjugate(), v);
+  jacobian.leftCols<3>() = -jacobian.leftCols<3>();
+  return jacobian;
+}
+
 }  // namespace mcvo

@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "mcvo/geometry/rigid3d.h"
+#include "mcvo/geometry/so3.h"
 
 namespace mcvo::initializer_internal {
 
@@ -79,7 +80,8 @@ inline Rigid3d FromPoseBlock(const PoseBlock& block) {
 // pose world_from_body = (q, p) carrying a camera at cam_from_body:
 //   d = cam_from_body * (q^-1 (X - p)),   e = focal * B_f^T d / |d|.
 // Parameters: the pose block (q, p) and X. For small errors e is the angle
-// between d and f in pixels at `focal`, for any direction of f.
+// between d and f in pixels at `focal`, for any direction of f. The
+// template is the reference (AutoDiff); the solvers use TangentBearingCost.
 struct TangentBearingResidual {
   TangentBearingResidual(const Eigen::Vector3d& bearing, double focal_px,
                          const Rigid3d& cam_from_body = Rigid3d())
@@ -106,6 +108,55 @@ struct TangentBearingResidual {
   double focal;
   Eigen::Matrix3d cam_rotation;
   Eigen::Vector3d cam_translation;
+};
+
+// TangentBearingResidual with analytic Jacobians (the same ambient
+// Jacobians as AutoDiff's, to rounding; bearing_residual_test). With
+// w = X - p, u = d / |d| and J = focal B^T (I - u u^T) / |d|:
+//   d e / d X = J R_c R_q^T,  d e / d p = -d e / d X,
+//   d e / d q = J R_c QuaternionInverseRotateJacobian(q, w).
+// Jets cost several times this in the initializer's many small solves.
+class TangentBearingCost final : public ceres::SizedCostFunction<2, 7, 3> {
+ public:
+  TangentBearingCost(const Eigen::Vector3d& bearing, double focal_px, const Rigid3d& cam_from_body = Rigid3d())
+      : basis_t_(TangentBasis(bearing).transpose()),
+        focal_(focal_px),
+        cam_rotation_(cam_from_body.RotationMatrix()),
+        cam_translation_(cam_from_body.translation) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const Eigen::Map<const Eigen::Quaterniond> q(parameters[0]);
+    const Eigen::Map<const Eigen::Vector3d> p(parameters[0] + 4);
+    const Eigen::Map<const Eigen::Vector3d> x(parameters[1]);
+    const Eigen::Vector3d w = x - p;
+    const Eigen::Vector3d d = cam_rotation_ * (q.conjugate() * w) + cam_translation_;
+    const double norm = d.norm();
+    if (!(norm > 0.0)) return false;
+    const Eigen::Vector3d u = d / norm;
+    const Eigen::Vector2d e = (focal_ / norm) * (basis_t_ * d);
+    residuals[0] = e[0];
+    residuals[1] = e[1];
+    if (jacobians == nullptr || (jacobians[0] == nullptr && jacobians[1] == nullptr)) return true;
+    const Eigen::Matrix<double, 2, 3> j_d = (focal_ / norm) * (basis_t_ - (basis_t_ * u) * u.transpose());
+    const Eigen::Matrix<double, 2, 3> j_body = j_d * cam_rotation_;
+    const Eigen::Matrix<double, 2, 3> j_x = j_body * q.conjugate().toRotationMatrix();
+    if (jacobians[0] != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 2, 7, Eigen::RowMajor>> j(jacobians[0]);
+      j.leftCols<4>() = j_body * QuaternionInverseRotateJacobian(Eigen::Quaterniond(q), w);
+      j.rightCols<3>() = -j_x;
+    }
+    if (jacobians[1] != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> j(jacobians[1]);
+      j = j_x;
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Matrix<double, 2, 3> basis_t_;
+  double focal_;
+  Eigen::Matrix3d cam_rotation_;
+  Eigen::Vector3d cam_translation_;
 };
 
 // Solver options of the initializer's small bundle adjustments: Levenberg-

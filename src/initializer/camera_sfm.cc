@@ -45,7 +45,7 @@ using initializer_internal::AngleBetween;
 using initializer_internal::FromPoseBlock;
 using initializer_internal::PoseBlock;
 using initializer_internal::ReprojectionPx;
-using initializer_internal::TangentBearingResidual;
+using initializer_internal::TangentBearingCost;
 using initializer_internal::ToPoseBlock;
 using initializer_internal::TriangulateMidpoint;
 
@@ -351,8 +351,7 @@ class WindowSfm {
     for (const auto& obs : observations) ++count[obs.id];
     for (const auto& obs : observations) {
       if (count[obs.id] < 2) continue;
-      auto* cost = new ceres::AutoDiffCostFunction<TangentBearingResidual, 2, 7, 3>(
-          new TangentBearingResidual(obs.bearing, Focal()));
+      auto* cost = new TangentBearingCost(obs.bearing, Focal());
       problem.AddResidualBlock(cost, &huber, blocks[static_cast<size_t>(obs.frame)].data(),
                                points.at(obs.id).data());
     }

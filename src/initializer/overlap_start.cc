@@ -22,7 +22,7 @@ using initializer_internal::AngleBetween;
 using initializer_internal::FromPoseBlock;
 using initializer_internal::PoseBlock;
 using initializer_internal::ReprojectionPx;
-using initializer_internal::TangentBearingResidual;
+using initializer_internal::TangentBearingCost;
 using initializer_internal::ToPoseBlock;
 using initializer_internal::TriangulateMidpoint;
 
@@ -105,8 +105,7 @@ void TriangulateCross(const Rig& rig, const RigFrameObservations& frame, const R
 // returns the inliers within max_px at the result.
 int PoseFrame(const Rig& rig, const std::vector<Sighting>& sightings,
               const std::map<uint64_t, CrossPoint>& points, double max_px, Rigid3d* world_from_rig) {
-  using CostFunction = ceres::AutoDiffCostFunction<TangentBearingResidual, 2, 7, 3>;
-  using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
+    using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
   std::map<uint64_t, Eigen::Vector3d> fixed;  // copies Ceres may point at
   for (const Sighting& s : sightings) {
     auto it = points.find(s.id);
@@ -129,8 +128,7 @@ int PoseFrame(const Rig& rig, const std::vector<Sighting>& sightings,
     for (const Sighting& s : sightings) {
       if (fixed.count(s.id) == 0 || !(error_px(start, s) <= threshold)) continue;
       const Camera& camera = rig.cameras[static_cast<size_t>(s.camera)];
-      problem.AddResidualBlock(new CostFunction(new TangentBearingResidual(
-                                   s.bearing, camera.MeanFocalLength(), camera.cam_from_rig)),
+      problem.AddResidualBlock(new TangentBearingCost(s.bearing, camera.MeanFocalLength(), camera.cam_from_rig),
                                &huber, block.data(), fixed.at(s.id).data());
       problem.SetParameterBlockConstant(fixed.at(s.id).data());
     }

@@ -22,9 +22,8 @@ namespace {
 using initializer_internal::FromPoseBlock;
 using initializer_internal::PoseBlock;
 using initializer_internal::ReprojectionPx;
-using initializer_internal::TangentBearingResidual;
+using initializer_internal::TangentBearingCost;
 using initializer_internal::ToPoseBlock;
-using CostFunction = ceres::AutoDiffCostFunction<TangentBearingResidual, 2, 7, 3>;
 using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
 
 constexpr double kFirstPassFactor = 3.0;  // first-pass outlier threshold, in max_reprojection_px
@@ -80,8 +79,8 @@ class RigWindowBa {
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
     for (const auto& obs : observations) {
-      auto* cost = new CostFunction(new TangentBearingResidual(
-          obs.bearing, Focal(obs.camera), cam_from_rig_[static_cast<size_t>(obs.camera)]));
+      auto* cost =
+          new TangentBearingCost(obs.bearing, Focal(obs.camera), cam_from_rig_[static_cast<size_t>(obs.camera)]);
       problem.AddResidualBlock(cost, &huber, state->poses[static_cast<size_t>(obs.frame)].data(),
                                state->points.at(obs.landmark).data());
     }
@@ -134,8 +133,7 @@ class RigWindowBa {
     double sum_sq = 0.0;
     for (const auto& obs : observations) {
       const size_t t = static_cast<size_t>(obs.frame);
-      CostFunction cost(new TangentBearingResidual(obs.bearing, Focal(obs.camera),
-                                                   cam_from_rig_[static_cast<size_t>(obs.camera)]));
+      const TangentBearingCost cost(obs.bearing, Focal(obs.camera), cam_from_rig_[static_cast<size_t>(obs.camera)]);
       const double* params[2] = {state.poses[t].data(), state.points.at(obs.landmark).data()};
       Eigen::Vector2d residual;
       Eigen::Matrix<double, 2, 7, Eigen::RowMajor> j_pose_ambient;

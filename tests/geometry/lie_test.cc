@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -143,6 +144,36 @@ TEST(Se3, PureTranslationAndAgainstMatrixExponential) {
     sum += term;
   }
   EXPECT_LT((Se3Exp(xi).ToMatrix4() - sum).norm(), 1e-12);
+}
+
+// The derivative of Eigen's q * v (and q^* * v) with respect to (x, y, z, w)
+// against central differences of the product itself, for quaternions of any
+// norm near 1 (the formula is differentiated as written, not as a rotation).
+TEST(So3, QuaternionRotateJacobiansMatchFiniteDifferences) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  double worst = 0.0;
+  for (int i = 0; i < 200; ++i) {
+    Eigen::Quaterniond q(u(rng), u(rng), u(rng), u(rng));
+    q.coeffs() *= (1.0 + 0.1 * u(rng)) / q.coeffs().norm();
+    const Eigen::Vector3d v(5.0 * u(rng), 5.0 * u(rng), 5.0 * u(rng));
+    for (const bool inverse : {false, true}) {
+      const Eigen::Matrix<double, 3, 4> analytic =
+          inverse ? QuaternionInverseRotateJacobian(q, v) : QuaternionRotateJacobian(q, v);
+      const auto rotate = [&](const Eigen::Quaterniond& p) -> Eigen::Vector3d {
+        return inverse ? Eigen::Vector3d(p.conjugate() * v) : Eigen::Vector3d(p * v);
+      };
+      const double h = 1e-6;
+      for (int k = 0; k < 4; ++k) {
+        Eigen::Quaterniond plus = q, minus = q;
+        plus.coeffs()[k] += h;
+        minus.coeffs()[k] -= h;
+        const Eigen::Vector3d numeric = (rotate(plus) - rotate(minus)) / (2.0 * h);
+        worst = std::max(worst, (analytic.col(k) - numeric).norm() / std::max(1.0, numeric.norm()));
+      }
+    }
+  }
+  EXPECT_LT(worst, 1e-8);
 }
 
 }  // namespace

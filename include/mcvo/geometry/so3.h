@@ -1,5 +1,6 @@
-// Rotation group SO(3): exponential and logarithm maps, the left Jacobian, and
-// the rotation angle of a quaternion.
+// Rotation group SO(3): exponential and logarithm maps, the left Jacobian,
+// the rotation angle of a quaternion, and the derivative of a quaternion's
+// action on a vector with respect to its four coefficients.
 //
 // Conventions: a tangent vector phi (axis * angle, radians) maps to the
 // rotation Exp(phi) = exp(hat(phi)), the right-handed rotation by |phi| about
@@ -40,5 +41,16 @@ Eigen::Matrix3d So3LeftJacobian(const Eigen::Vector3d& phi);
 // Inverse of the left Jacobian (Barfoot eq. 7.77b), valid for |phi| < 2 pi:
 //   J^-1(phi) = I - 1/2 hat(phi) + (1/t^2 - cot(t/2) / (2 t)) hat(phi)^2.
 Eigen::Matrix3d So3LeftJacobianInverse(const Eigen::Vector3d& phi);
+
+// d (q * v) / d (qx, qy, qz, qw) of Eigen's quaternion-vector product,
+//   q * v = v + 2 w (q_v x v) + 2 q_v x (q_v x v),
+// exactly as written, so also off the unit sphere (what Ceres' Jets
+// differentiate; a Ceres quaternion block is stored x, y, z, w):
+//   d / d w   = 2 q_v x v,
+//   d / d q_v = 2 (-w [v]x + (q_v . v) I + q_v v^T - 2 v q_v^T).
+Eigen::Matrix<double, 3, 4> QuaternionRotateJacobian(const Eigen::Quaterniond& q, const Eigen::Vector3d& v);
+// d (q^* * v) / d (qx, qy, qz, qw): the product with the conjugate (w, -q_v),
+// so the q_v columns change sign.
+Eigen::Matrix<double, 3, 4> QuaternionInverseRotateJacobian(const Eigen::Quaterniond& q, const Eigen::Vector3d& v);
 
 }  // namespace mcvo
