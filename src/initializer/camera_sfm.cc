@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -81,12 +82,16 @@ WindowData Organise(int num_frames, const std::vector<WindowObservation>& observ
   return data;
 }
 
-// Runs an OpenGV RANSAC, refines the winner on its inliers and re-selects
-// (the refinement is kept when it keeps at least as many inliers). Returns
-// false when no model was found.
+// Runs an OpenGV RANSAC, refines the winner on its inliers (`refine`, or
+// OpenGV's own nonlinear refinement when empty) and re-selects (the
+// refinement is kept when it keeps at least as many inliers). Returns false
+// when no model was found.
 template <typename Problem>
-bool RansacRefine(const std::shared_ptr<Problem>& problem, double threshold, int max_iterations,
-                  typename Problem::model_t* model, std::vector<int>* inliers) {
+bool RansacRefine(
+    const std::shared_ptr<Problem>& problem, double threshold, int max_iterations, typename Problem::model_t* model,
+    std::vector<int>* inliers,
+    const std::function<void(const std::vector<int>&, const typename Problem::model_t&, typename Problem::model_t*)>&
+        refine = {}) {
   opengv::sac::Ransac<Problem> ransac;
   ransac.sac_model_ = problem;
   ransac.threshold_ = threshold;
@@ -97,7 +102,11 @@ bool RansacRefine(const std::shared_ptr<Problem>& problem, double threshold, int
   *inliers = ransac.inliers_;
   if (inliers->size() > 5) {
     typename Problem::model_t refined;
-    problem->optimizeModelCoefficients(*inliers, *model, refined);
+    if (refine) {
+      refine(*inliers, *model, &refined);
+    } else {
+      problem->optimizeModelCoefficients(*inliers, *model, refined);
+    }
     std::vector<int> refined_inliers;
     if (refined.allFinite()) problem->selectWithinDistance(refined, threshold, refined_inliers);
     if (refined_inliers.size() >= inliers->size()) {
@@ -107,6 +116,47 @@ bool RansacRefine(const std::shared_ptr<Problem>& problem, double threshold, int
   }
   std::sort(inliers->begin(), inliers->end());
   return true;
+}
+
+// The bearing cost of one observation of a fixed point: the pose block only.
+class FixedPointBearingCost final : public ceres::SizedCostFunction<2, 7> {
+ public:
+  FixedPointBearingCost(const Eigen::Vector3d& bearing, const Eigen::Vector3d& point, double focal)
+      : cost_(bearing, focal), point_(point) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double* params[2] = {parameters[0], point_.data()};
+    double* blocks[2] = {jacobians != nullptr ? jacobians[0] : nullptr, nullptr};
+    return cost_.Evaluate(params, residuals, jacobians != nullptr ? blocks : nullptr);
+  }
+
+ private:
+  TangentBearingCost cost_;
+  Eigen::Vector3d point_;
+};
+
+// The absolute pose [R c] (anchor_from_cam, centre) refined on its inliers'
+// fixed points: the tangent-plane bearing error in pixels at `focal`, least
+// squares, Levenberg-Marquardt on Ceres with analytic Jacobians. Replaces
+// OpenGV's refinement, whose Levenberg-Marquardt differentiates numerically.
+void RefineAbsolutePose(const opengv::bearingVectors_t& bearings, const opengv::points_t& points, double focal,
+                        const std::vector<int>& inliers, const opengv::transformation_t& model,
+                        opengv::transformation_t* refined) {
+  PoseBlock block = ToPoseBlock(Rigid3d(Eigen::Matrix3d(model.leftCols<3>()), Eigen::Vector3d(model.col(3))));
+  ceres::Problem problem;
+  for (const int i : inliers) {
+    problem.AddResidualBlock(new FixedPointBearingCost(bearings[static_cast<size_t>(i)],
+                                                       points[static_cast<size_t>(i)], focal),
+                             nullptr, block.data());
+  }
+  problem.SetManifold(block.data(),
+                      new ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>());
+  ceres::Solver::Options options = initializer_internal::DeterministicBaOptions(10);
+  options.linear_solver_type = ceres::DENSE_QR;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  const Rigid3d pose = FromPoseBlock(block);
+  refined->leftCols<3>() = pose.RotationMatrix();
+  refined->col(3) = pose.translation;
 }
 
 class WindowSfm {
@@ -287,8 +337,12 @@ class WindowSfm {
     const auto problem = std::make_shared<Problem>(adapter, Problem::KNEIP, /*randomSeed=*/false);
     opengv::transformation_t model;
     std::vector<int> inliers;
-    if (!RansacRefine(problem, OpenGvThreshold(options_.max_reprojection_px, Focal()),
-                      options_.ransac_max_iterations, &model, &inliers) ||
+    const auto refine = [&](const std::vector<int>& in, const opengv::transformation_t& from,
+                            opengv::transformation_t* to) {
+      RefineAbsolutePose(bearings, points, Focal(), in, from, to);
+    };
+    if (!RansacRefine<Problem>(problem, OpenGvThreshold(options_.max_reprojection_px, Focal()),
+                               options_.ransac_max_iterations, &model, &inliers, refine) ||
         !model.allFinite()) {
       *reason = StrCat("frame ", k, " cannot be posed: P3P RANSAC found no pose (", n, " points)");
       return false;
