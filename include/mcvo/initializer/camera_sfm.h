@@ -10,7 +10,8 @@
 //      either camera, or with a reprojection error above max_reprojection_px);
 //   3. every other frame, nearest to l first, by absolute pose (OpenGV
 //      P3P-Kneip RANSAC on the triangulated points it sees, fixed seed,
-//      threshold max_reprojection_px, refined on the inliers), then
+//      threshold max_reprojection_px, refined on the inliers' fixed points
+//      by Ceres with the bundle adjustment's bearing error), then
 //      triangulation of the features now seen in two posed frames (the pair
 //      of frames whose rays are furthest apart);
 //   4. bundle adjustment (Ceres, tangent-plane bearing residual, Huber,
