@@ -35,6 +35,7 @@
 #include <opengv/sac_problems/absolute_pose/AbsolutePoseSacProblem.hpp>
 #include <opengv/sac_problems/relative_pose/CentralRelativePoseSacProblem.hpp>
 
+#include "absolute_pose_refine.h"
 #include "bearing_residual.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/strings.h"
@@ -116,47 +117,6 @@ bool RansacRefine(
   }
   std::sort(inliers->begin(), inliers->end());
   return true;
-}
-
-// The bearing cost of one observation of a fixed point: the pose block only.
-class FixedPointBearingCost final : public ceres::SizedCostFunction<2, 7> {
- public:
-  FixedPointBearingCost(const Eigen::Vector3d& bearing, const Eigen::Vector3d& point, double focal)
-      : cost_(bearing, focal), point_(point) {}
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    const double* params[2] = {parameters[0], point_.data()};
-    double* blocks[2] = {jacobians != nullptr ? jacobians[0] : nullptr, nullptr};
-    return cost_.Evaluate(params, residuals, jacobians != nullptr ? blocks : nullptr);
-  }
-
- private:
-  TangentBearingCost cost_;
-  Eigen::Vector3d point_;
-};
-
-// The absolute pose [R c] (anchor_from_cam, centre) refined on its inliers'
-// fixed points: the tangent-plane bearing error in pixels at `focal`, least
-// squares, Levenberg-Marquardt on Ceres with analytic Jacobians. Replaces
-// OpenGV's refinement, whose Levenberg-Marquardt differentiates numerically.
-void RefineAbsolutePose(const opengv::bearingVectors_t& bearings, const opengv::points_t& points, double focal,
-                        const std::vector<int>& inliers, const opengv::transformation_t& model,
-                        opengv::transformation_t* refined) {
-  PoseBlock block = ToPoseBlock(Rigid3d(Eigen::Matrix3d(model.leftCols<3>()), Eigen::Vector3d(model.col(3))));
-  ceres::Problem problem;
-  for (const int i : inliers) {
-    problem.AddResidualBlock(new FixedPointBearingCost(bearings[static_cast<size_t>(i)],
-                                                       points[static_cast<size_t>(i)], focal),
-                             nullptr, block.data());
-  }
-  problem.SetManifold(block.data(),
-                      new ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>());
-  ceres::Solver::Options options = initializer_internal::DeterministicBaOptions(10);
-  options.linear_solver_type = ceres::DENSE_QR;
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-  const Rigid3d pose = FromPoseBlock(block);
-  refined->leftCols<3>() = pose.RotationMatrix();
-  refined->col(3) = pose.translation;
 }
 
 class WindowSfm {
@@ -339,7 +299,10 @@ class WindowSfm {
     std::vector<int> inliers;
     const auto refine = [&](const std::vector<int>& in, const opengv::transformation_t& from,
                             opengv::transformation_t* to) {
-      RefineAbsolutePose(bearings, points, Focal(), in, from, to);
+      const Rigid3d pose = initializer_internal::RefineAbsolutePose(
+          bearings, points, in, Focal(), Rigid3d(Eigen::Matrix3d(from.leftCols<3>()), Eigen::Vector3d(from.col(3))));
+      to->leftCols<3>() = pose.RotationMatrix();
+      to->col(3) = pose.translation;
     };
     if (!RansacRefine<Problem>(problem, OpenGvThreshold(options_.max_reprojection_px, Focal()),
                                options_.ransac_max_iterations, &model, &inliers, refine) ||
