@@ -69,12 +69,12 @@ print("Stage columns: 1 / (seconds of the stage per rig frame, summed over the 4
 print("Decode: 1 / time the tracker waited for decoded images (PNG decoding runs ahead in")
 print(f"{threads} background threads, so this is the part of decoding not hidden behind tracking).")
 print("Track: MultiCameraTracker::Track wall time (cameras in parallel). Total: whole loop.\n")
-print("| detector | decode wait | pyramid | LK | detection | RANSAC | selection | track | total |")
-print("|---|---|---|---|---|---|---|---|---|")
+print("| detector | decode wait | CLAHE | pyramid | LK | detection | RANSAC | selection | track | total |")
+print("|---|---|---|---|---|---|---|---|---|---|")
 for name, label in [("shi_tomasi", "shi_tomasi"), ("orb", "orb"), ("xfeat", "xfeat"),
                     ("superpoint", "superpoint (random weights: interface timing only)")]:
     s = load(name)["seconds_per_frame"]
-    print(f"| {label} | {fps(s['decode_wait'])} | {fps(s['pyramid'])} | {fps(s['lk'])} | "
+    print(f"| {label} | {fps(s['decode_wait'])} | {fps(s.get('clahe', 0))} | {fps(s['pyramid'])} | {fps(s['lk'])} | "
           f"{fps(s['detection'])} | {fps(s['ransac'])} | {fps(s['selection'])} | {fps(s['track_wall'])} | "
           f"{fps(s['total'])} |")
 print("\n## Tracking quality\n")

@@ -47,19 +47,26 @@ render() {  # scale -> prints the sequence folder
   echo "$seq"
 }
 
-seconds_of() {  # command... -> wall seconds on stdout (the command's output to SCRATCH/last.log)
-  local start end
-  start=$(date +%s.%N)
-  "$@" > "$SCRATCH/last.log" 2>&1 || { cat "$SCRATCH/last.log" >&2; return 1; }
-  end=$(date +%s.%N)
-  python3 -c "print(f'{$end - $start:.3f}')"
+seconds_of() {  # command... -> "wall cpu" seconds on stdout (cpu: user + system of the command and its
+                # threads; the command's output to SCRATCH/last.log)
+  python3 - "$SCRATCH/last.log" "$@" <<'PY' || { cat "$SCRATCH/last.log" >&2; return 1; }
+import resource, subprocess, sys, time
+log, cmd = sys.argv[1], sys.argv[2:]
+start = time.monotonic()
+with open(log, "w") as out:
+    rc = subprocess.call(cmd, stdout=out, stderr=subprocess.STDOUT)
+wall = time.monotonic() - start
+usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(f"{wall:.3f} {usage.ru_utime + usage.ru_stime:.3f}")
+sys.exit(rc)
+PY
 }
 
 cameras_of() {  # config -> comma-separated camera list
   python3 -c "import json,sys; print(','.join(json.load(open(sys.argv[1]))['dataset']['cameras']))" "$1"
 }
 
-echo "resolution,cameras,detector,threads,frames,decode_s,track_s,run_s,decode_fps,track_fps,run_fps,track_over_decode,run_over_decode,scale,ate_percent,scale_error_percent" > "$OUT_CSV"
+echo "resolution,cameras,detector,threads,frames,decode_s,track_s,run_s,decode_fps,track_fps,run_fps,track_over_decode,run_over_decode,scale,ate_percent,scale_error_percent,decode_cpu_s,track_cpu_s,run_cpu_s" > "$OUT_CSV"
 
 row() {  # seq scale config detector threads
   local seq=$1 scale=$2 config=$3 detector=$4 threads=$5
@@ -77,12 +84,14 @@ row() {  # seq scale config detector threads
 import json, sys
 run_json, scale, n, detector, threads, frames, decode, track, run = sys.argv[1:]
 r = json.load(open(run_json))["result"]
-frames, decode, track, run = int(frames), float(decode), float(track), float(run)
+(decode, decode_cpu), (track, track_cpu), (run, run_cpu) = (map(float, s.split()) for s in (decode, track, run))
+frames = int(frames)
 res = "full" if float(scale) == 1.0 else "half" if float(scale) == 0.5 else scale
 print(",".join(str(x) for x in [res, n, detector, threads, frames, f"{decode:.3f}", f"{track:.3f}", f"{run:.3f}",
       f"{frames/decode:.2f}", f"{frames/track:.2f}", f"{frames/run:.2f}", f"{track/decode:.2f}", f"{run/decode:.2f}",
       r.get("scale", "metric"), f"{r.get('ate_percent_of_path', float('nan')):.3f}",
-      f"{r['scale_error_percent']:.3f}" if "scale_error_percent" in r else "-"]))
+      f"{r['scale_error_percent']:.3f}" if "scale_error_percent" in r else "-",
+      f"{decode_cpu:.3f}", f"{track_cpu:.3f}", f"{run_cpu:.3f}"]))
 PY
   tail -1 "$OUT_CSV" >&2
 }
@@ -111,12 +120,16 @@ print(f"`tools/bench_throughput.sh {frames}`: the kitti360 preset (2 x 1408x376 
       f"fisheye), {frames} frames at 10 Hz of the urban scene (seed 13, noise 1), full and half resolution; "
       f"rigs config/kitti360_{{4,3,2}}cam.json on the same images. Machine: {os.cpu_count()} cores ({cpu}). "
       "Wall clock of the whole command (start-up, dataset opening and outputs included); "
-      "x decode = its time over the decode-only time of the same images.\n")
-print("| resolution | cameras | detector | threads | decode fps | track fps | track x decode | run fps | run x decode | scale | ATE % | scale error % |")
-print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+      "x decode = its time over the decode-only time of the same images. CPU s per frame: user + system "
+      "seconds of the whole command (all its threads, OpenCV's own included) over the frames: what the "
+      "frames cost the machine, whatever the wall clock.\n")
+print("| resolution | cameras | detector | threads | decode fps | track fps | track x decode | run fps | run x decode | CPU s per frame: decode / track / run | scale | ATE % | scale error % |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 for r in rows:
+    n = int(r['frames'])
+    cpu = " / ".join(f"{float(r[k]) / n:.3f}" for k in ("decode_cpu_s", "track_cpu_s", "run_cpu_s"))
     print(f"| {r['resolution']} | {r['cameras']} | {r['detector']} | {r['threads']} | {r['decode_fps']} | "
-          f"{r['track_fps']} | {r['track_over_decode']} | {r['run_fps']} | {r['run_over_decode']} | "
+          f"{r['track_fps']} | {r['track_over_decode']} | {r['run_fps']} | {r['run_over_decode']} | {cpu} | "
           f"{r['scale']} | {r['ate_percent']} | {r['scale_error_percent']} |")
 print("\nscale: metric, or arbitrary where the run fell back to one camera (initializer.monocular_fallback): "
       "the 3-camera rig has no overlap and these 60 frames never turn, so its metric scale is never observable; "
@@ -125,9 +138,10 @@ print("Issue 17's targets: 4 cameras at full resolution with Shi-Tomasi >= 20 fr
       "run <= 2.5 x decode; XFeat >= 8 frames/s; half resolution >= 40 frames/s.\n")
 print("## Profile: full resolution, 4 cameras, Shi-Tomasi\n")
 print("Seconds per frame by stage. Frontend stages from `mcvo track --timing` (summed over the cameras: the work "
-      "of one frame on one core); back end and the rest from run.json's timing section (per frame, or per "
+      "of one frame on one core; decode on the decoding threads, beside tracking; OpenCV runs its own loops "
+      "on both cores within a stage, so a stage's wall time is not its CPU time); back end and the rest from run.json's timing section (per frame, or per "
       "keyframe / in total where named).\n")
-stages = ["decode_wait", "pyramid", "lk", "detection", "ransac", "anchor", "selection", "cross_camera", "track_wall",
+stages = ["decode", "decode_wait", "clahe", "pyramid", "lk", "detection", "ransac", "anchor", "selection", "cross_camera", "track_wall",
           "total"]
 run_keys = ["frontend_s", "initializer_s", "pnp_s", "ba_s", "marginalization_s", "scale_correction_s", "backend_s",
             "loop_image_read_s_per_keyframe", "loop_features_s_per_keyframe", "loop_query_s_per_keyframe",

@@ -60,7 +60,7 @@ struct RunTotals {
   std::map<uint64_t, int> track_lengths;
   // Seconds per stage, summed over frames (and over cameras for the stages
   // that run per camera).
-  double decode_wait = 0.0, pyramid = 0.0, lk = 0.0, ransac = 0.0, anchor = 0.0, detect = 0.0, select = 0.0,
+  double decode = 0.0, decode_wait = 0.0, clahe = 0.0, pyramid = 0.0, lk = 0.0, ransac = 0.0, anchor = 0.0, detect = 0.0, select = 0.0,
          cross_camera = 0.0, track_wall = 0.0, write = 0.0, total = 0.0;
   int64_t cross_matches = 0;
 
@@ -70,6 +70,7 @@ struct RunTotals {
     cross_matches += static_cast<int64_t>(frame.cross_matches.size());
     for (const CameraFrameResult& camera : frame.cameras) {
       const CameraFrameStats& s = camera.stats;
+      clahe += s.seconds_clahe;
       pyramid += s.seconds_pyramid;
       lk += s.seconds_lk;
       ransac += s.seconds_ransac;
@@ -117,8 +118,9 @@ void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const st
   nlohmann::ordered_json json;
   json["note"] =
       "wall-clock timings, not deterministic. Stage seconds are per rig frame, summed over cameras "
-      "(the work of one frame on one core; cross_camera: summed over camera pairs); track_wall is the wall "
-      "time of MultiCameraTracker::Track (cameras, then camera pairs, in parallel); decode_wait is the time "
+      "(the work of one frame on one core; cross_camera: summed over camera pairs); decode is the decoding "
+      "of the images on the decoding threads (summed over cameras); clahe is the contrast equalisation before "
+      "the pyramid; track_wall is the wall time of MultiCameraTracker::Track (cameras, then camera pairs, in parallel); decode_wait is the time "
       "the tracking thread was blocked waiting for decoded images (0 when the decoding threads keep up); "
       "write is the time of the writing thread, which runs beside the tracking thread; "
       "total is the wall time per frame.";
@@ -129,7 +131,9 @@ void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const st
   json["tracker_threads"] = tracker_threads;
   json["decode_threads"] = decode_threads;
   nlohmann::ordered_json seconds;
+  seconds["decode"] = t.decode / n;
   seconds["decode_wait"] = t.decode_wait / n;
+  seconds["clahe"] = t.clahe / n;
   seconds["pyramid"] = t.pyramid / n;
   seconds["lk"] = t.lk / n;
   seconds["detection"] = t.detect / n;
@@ -254,6 +258,7 @@ int RunTrack(int argc, const char* const* argv) {
   const Clock::time_point run_start = Clock::now();
   source.Start(total_frames);
   while (std::optional<FrontendItem> item = source.Next()) {
+    totals.decode += item->decode_seconds;
     totals.decode_wait += item->decode_wait_seconds;
     totals.track_wall += item->track_seconds;
     const Clock::time_point start = Clock::now();

@@ -7,6 +7,7 @@
 // when it is claimed. Each frame is decoded independently of the others, so
 // the output does not depend on the number of threads or on scheduling.
 #include <algorithm>
+#include <chrono>
 #include <condition_variable>
 #include <exception>
 #include <mutex>
@@ -84,9 +85,11 @@ struct FrameStream::Impl {
     frame.index = i;
     frame.t_ns = source.t_ns;
     frame.images.resize(source.images.size());
+    const auto start = std::chrono::steady_clock::now();
     for (size_t c = 0; c < source.images.size(); ++c) {
       if (!source.images[c].empty()) frame.images[c] = DecodeImage(source.images[c], cameras[c]);
     }
+    frame.decode_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return frame;
   }
 

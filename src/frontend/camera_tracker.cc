@@ -206,6 +206,8 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   cv::Mat image;
   if (clahe) {
     clahe->apply(input, image);
+    stats.seconds_clahe = SecondsSince(start);
+    start = Clock::now();
   } else {
     image = input;
   }

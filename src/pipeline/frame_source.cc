@@ -111,7 +111,8 @@ struct FrameSource::Impl {
           if (!images) break;
           const Clock::time_point track_start = Clock::now();
           MultiCameraFrame frame = tracker->Track(images->index, images->t_ns, images->images);
-          queue.Push({std::move(frame), decode_wait, SecondsSince(track_start), SecondsSince(start)});
+          queue.Push({std::move(frame), decode_wait, SecondsSince(track_start), SecondsSince(start),
+                      images->decode_seconds});
           ++produced;
         }
       }

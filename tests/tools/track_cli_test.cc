@@ -13,6 +13,8 @@
 #include <set>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "mcvo/frontend/track_file.h"
 #include "mcvo/util/file.h"
 
@@ -136,6 +138,36 @@ TEST(TrackCli, IdenticalAtAnyThreadCount) {
   EXPECT_FALSE(tracks[0].empty());
   EXPECT_TRUE(tracks[0] == tracks[1]) << "track files differ between 1 and 2 threads";
   EXPECT_EQ(stats[0], stats[1]);
+}
+
+// --timing names every stage of issue 17's profile; decoding and CLAHE are
+// timed on their own (CLAHE 0 when the config turns it off).
+TEST(TrackCli, TimingNamesEveryStage) {
+  const fs::path& dataset = Dataset();  // creates Root()
+  const fs::path no_clahe = Root() / "no_clahe.json";
+  mcvo::WriteFileAtomic(no_clahe, "{\"frontend\": {\"clahe\": {\"enabled\": false}}}\n");
+  for (const bool clahe : {true, false}) {
+    const fs::path timing = Root() / (clahe ? "timing_clahe.json" : "timing_plain.json");
+    const Result r = RunMcvo("track --dataset " + dataset.string() + " --out " + (Root() / "timed.bin").string() +
+                             " --timing " + timing.string() + (clahe ? "" : " --config " + no_clahe.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const nlohmann::json json = nlohmann::json::parse(mcvo::ReadFileToString(timing));
+    EXPECT_EQ(json.at("frames"), 4);
+    const nlohmann::json& seconds = json.at("seconds_per_frame");
+    for (const char* key : {"decode", "decode_wait", "clahe", "pyramid", "lk", "detection", "ransac", "anchor",
+                            "selection", "cross_camera", "track_wall", "write", "total"}) {
+      ASSERT_TRUE(seconds.contains(key)) << key;
+      EXPECT_GE(seconds.at(key).get<double>(), 0.0) << key;
+    }
+    EXPECT_GT(seconds.at("decode").get<double>(), 0.0);
+    EXPECT_GT(seconds.at("pyramid").get<double>(), 0.0);
+    if (clahe) {
+      EXPECT_GT(seconds.at("clahe").get<double>(), 0.0);
+    } else {
+      EXPECT_EQ(seconds.at("clahe").get<double>(), 0.0);
+    }
+    EXPECT_GE(seconds.at("total").get<double>(), seconds.at("track_wall").get<double>());
+  }
 }
 
 TEST(TrackCli, MissingModelFailsAtStartUp) {

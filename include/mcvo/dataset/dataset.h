@@ -99,6 +99,9 @@ struct FrameImages {
   int index = 0;  // position in DatasetIndex::frames
   int64_t t_ns = 0;
   std::vector<cv::Mat> images;  // CV_8UC1 per camera; empty Mat = missing
+  // Wall time of decoding these images on the decoding thread, summed over
+  // the cameras (timing only: not deterministic).
+  double decode_seconds = 0.0;
 };
 
 struct FrameStreamOptions {

@@ -40,8 +40,10 @@ struct CameraFrameStats {
   double sfd = 0.0;                // ComputeSfd over this frame's features
   // Wall time per stage in seconds: for logs and benchmarks only, never
   // written to deterministic outputs.
-  double seconds_pyramid = 0.0, seconds_lk = 0.0, seconds_ransac = 0.0, seconds_anchor = 0.0,
-         seconds_detect = 0.0, seconds_select = 0.0;
+  // seconds_clahe: the contrast equalisation (FrontendOptions::clahe; 0 when
+  // off); seconds_pyramid: the LK pyramid(s) after it.
+  double seconds_clahe = 0.0, seconds_pyramid = 0.0, seconds_lk = 0.0, seconds_ransac = 0.0,
+         seconds_anchor = 0.0, seconds_detect = 0.0, seconds_select = 0.0;
 };
 
 struct CameraFrameResult {

@@ -24,12 +24,14 @@ namespace mcvo {
 // A frame from the frontend (tracked now, or read from a track file) and the
 // wall time it took on the producer thread: waiting for its decoded images
 // (0 when decoding keeps ahead), tracking (or reading it from the file), and
-// both together.
+// both together; and the decoding of its images on the decoding thread
+// (summed over cameras; 0 for a track file).
 struct FrontendItem {
   MultiCameraFrame frame;
   double decode_wait_seconds = 0.0;
   double track_seconds = 0.0;
   double seconds = 0.0;
+  double decode_seconds = 0.0;
 };
 
 class FrameSource {
