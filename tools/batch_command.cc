@@ -27,7 +27,9 @@ int RunBatchCommand(int argc, const char* const* argv) {
                  "config, frame count and input hashes as their finished run.json) are skipped; a failing\n"
                  "run is reported and the others go on.");
   args.AddString("manifest", &manifest_path, "FILE", "the runs (JSON; docs/batch-and-regress.md)", true);
-  args.AddInt("jobs", &jobs, "runs at the same time (in this process)");
+  args.AddInt("jobs", &jobs,
+              "runs at the same time (in this process), each on max(1, cores / N) threads; N = cores is "
+              "fastest where memory allows");
   args.AddString("shard", &shard_text, "K/N",
                  "take only the runs whose 0-based manifest index i has i % N == K (0 <= K < N)");
   args.AddString("out", &out_path, "DIR", "output folder; default: the manifest's path without .json");

@@ -299,10 +299,8 @@ class WindowSfm {
     std::vector<int> inliers;
     const auto refine = [&](const std::vector<int>& in, const opengv::transformation_t& from,
                             opengv::transformation_t* to) {
-      const Rigid3d pose = initializer_internal::RefineAbsolutePose(
-          bearings, points, in, Focal(), Rigid3d(Eigen::Matrix3d(from.leftCols<3>()), Eigen::Vector3d(from.col(3))));
-      to->leftCols<3>() = pose.RotationMatrix();
-      to->col(3) = pose.translation;
+      *to = initializer_internal::RefineAbsolutePose(bearings, points, in, Focal(), Rigid3d::FromMatrix(from))
+                .ToMatrix3x4();
     };
     if (!RansacRefine<Problem>(problem, OpenGvThreshold(options_.max_reprojection_px, Focal()),
                                options_.ransac_max_iterations, &model, &inliers, refine) ||
