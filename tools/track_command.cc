@@ -59,24 +59,18 @@ struct RunTotals {
   // length of the paper counts how long features survive, not their age now.
   std::map<uint64_t, int> track_lengths;
   // Seconds per stage, summed over frames (and over cameras for the stages
-  // that run per camera).
-  double decode = 0.0, decode_wait = 0.0, clahe = 0.0, pyramid = 0.0, lk = 0.0, ransac = 0.0, anchor = 0.0, detect = 0.0, select = 0.0,
-         cross_camera = 0.0, track_wall = 0.0, write = 0.0, total = 0.0;
+  // that run per camera); write and total of this command's loop.
+  FrontendStageSeconds stages;
+  double write = 0.0, total = 0.0;
   int64_t cross_matches = 0;
 
-  void Add(const MultiCameraFrame& frame) {
+  void Add(const FrontendItem& item) {
+    const MultiCameraFrame& frame = item.frame;
     ++frames;
-    for (const CrossCameraPairStats& pair : frame.cross_pair_stats) cross_camera += pair.seconds;
+    stages.Add(item);
     cross_matches += static_cast<int64_t>(frame.cross_matches.size());
     for (const CameraFrameResult& camera : frame.cameras) {
       const CameraFrameStats& s = camera.stats;
-      clahe += s.seconds_clahe;
-      pyramid += s.seconds_pyramid;
-      lk += s.seconds_lk;
-      ransac += s.seconds_ransac;
-      anchor += s.seconds_anchor;
-      detect += s.seconds_detect;
-      select += s.seconds_select;
       if (s.image_missing) continue;
       ++camera_frames;
       inliers += s.ransac_inliers;
@@ -131,17 +125,7 @@ void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const st
   json["tracker_threads"] = tracker_threads;
   json["decode_threads"] = decode_threads;
   nlohmann::ordered_json seconds;
-  seconds["decode"] = t.decode / n;
-  seconds["decode_wait"] = t.decode_wait / n;
-  seconds["clahe"] = t.clahe / n;
-  seconds["pyramid"] = t.pyramid / n;
-  seconds["lk"] = t.lk / n;
-  seconds["detection"] = t.detect / n;
-  seconds["ransac"] = t.ransac / n;
-  seconds["anchor"] = t.anchor / n;
-  seconds["selection"] = t.select / n;
-  seconds["cross_camera"] = t.cross_camera / n;
-  seconds["track_wall"] = t.track_wall / n;
+  for (const auto& [stage, value] : t.stages.PerFrame()) seconds[stage] = value;
   seconds["write"] = t.write / n;
   seconds["total"] = t.total / n;
   json["seconds_per_frame"] = seconds;
@@ -258,14 +242,11 @@ int RunTrack(int argc, const char* const* argv) {
   const Clock::time_point run_start = Clock::now();
   source.Start(total_frames);
   while (std::optional<FrontendItem> item = source.Next()) {
-    totals.decode += item->decode_seconds;
-    totals.decode_wait += item->decode_wait_seconds;
-    totals.track_wall += item->track_seconds;
     const Clock::time_point start = Clock::now();
     writer.Write(item->frame);
     AppendStatsRows(item->frame, index.rig, &csv);
     totals.write += SecondsSince(start);
-    totals.Add(item->frame);
+    totals.Add(*item);
     progress.Update(totals.frames);
   }
   progress.Finish();

@@ -1,5 +1,6 @@
 #include "mcvo/pipeline/frame_source.h"
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -157,6 +158,32 @@ void FrameSource::Start(int frames) {
 std::optional<FrontendItem> FrameSource::Next() { return impl_->queue.Pop(); }
 
 const MultiCameraTracker* FrameSource::tracker() const { return impl_->tracker.get(); }
+
+void FrontendStageSeconds::Add(const FrontendItem& item) {
+  ++frames;
+  decode += item.decode_seconds;
+  decode_wait += item.decode_wait_seconds;
+  track_wall += item.track_seconds;
+  for (const CrossCameraPairStats& pair : item.frame.cross_pair_stats) cross_camera += pair.seconds;
+  for (const CameraFrameResult& camera : item.frame.cameras) {
+    const CameraFrameStats& s = camera.stats;
+    clahe += s.seconds_clahe;
+    pyramid += s.seconds_pyramid;
+    lk += s.seconds_lk;
+    detect += s.seconds_detect;
+    ransac += s.seconds_ransac;
+    anchor += s.seconds_anchor;
+    select += s.seconds_select;
+  }
+}
+
+std::vector<std::pair<std::string, double>> FrontendStageSeconds::PerFrame() const {
+  const double n = std::max(1, frames);
+  return {{"decode", decode / n},   {"decode_wait", decode_wait / n}, {"clahe", clahe / n},
+          {"pyramid", pyramid / n}, {"lk", lk / n},                   {"detection", detect / n},
+          {"ransac", ransac / n},   {"anchor", anchor / n},           {"selection", select / n},
+          {"cross_camera", cross_camera / n}, {"track_wall", track_wall / n}};
+}
 
 RigFrameObservations ToObservations(const Rig& rig, const MultiCameraFrame& frame) {
   RigFrameObservations obs;

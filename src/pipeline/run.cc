@@ -250,7 +250,9 @@ RunSummary RunPipeline(const RunRequest& request) {
   RunSummary summary;
   ProgressBar progress("run", total_frames, "frames");
   const Clock::time_point run_start = Clock::now();
+  FrontendStageSeconds frontend_stages;
   while (std::optional<FrontendItem> item = source.Next()) {
+    frontend_stages.Add(*item);
     odometry_stage.Add(ToObservations(rig, item->frame), item->seconds);
     ++summary.frames;
     progress.Update(summary.frames);
@@ -332,6 +334,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   outputs.map = &map;
   outputs.map_observations_dropped = map_observations_dropped;
   outputs.odometry_seconds = odometry_seconds;
+  if (request.tracks.empty()) outputs.frontend_stages = &frontend_stages;
   pipeline_internal::WriteRunOutputs(outputs, staging.path(), &summary);
   if (std::filesystem::exists(absolute_out, ec)) std::filesystem::remove_all(absolute_out, ec);
   std::filesystem::rename(staging.path(), absolute_out, ec);

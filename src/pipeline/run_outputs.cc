@@ -408,6 +408,12 @@ Json TimingJson(const RunOutputsInput& in, const RunSummary& summary, double col
   timing["frames_per_second"] = summary.frames_per_second;
   const double n = std::max(1, summary.frames);
   timing["frontend_s"] = totals.frontend / n;
+  if (in.frontend_stages != nullptr) {
+    // As `mcvo track --timing`: seconds per frame, summed over the cameras.
+    Json stages;
+    for (const auto& [stage, value] : in.frontend_stages->PerFrame()) stages[stage] = value;
+    timing["frontend_stages_s"] = stages;
+  }
   timing["initializer_s"] = totals.initializer / n;
   timing["pnp_s"] = totals.pnp / n;
   timing["ba_s"] = totals.ba / n;

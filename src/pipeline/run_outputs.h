@@ -17,6 +17,7 @@
 #include "mcvo/config/pipeline_options.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/map/sparse_map.h"
+#include "mcvo/pipeline/frame_source.h"
 #include "mcvo/pipeline/run.h"
 #include "odometry_stage.h"
 #include "refine_stage.h"
@@ -48,6 +49,8 @@ struct RunOutputsInput {
   const SparseMap* map = nullptr;
   int map_observations_dropped = 0;
   double odometry_seconds = 0.0;
+  // The frontend's stages when images were tracked (null for a track file).
+  const FrontendStageSeconds* frontend_stages = nullptr;
 };
 
 // Writes every output into `dir` and sets summary's evaluation fields

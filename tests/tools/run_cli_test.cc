@@ -187,6 +187,18 @@ TEST(RunCli, CompletesAccuratelyAndIsDeterministic) {
   EXPECT_EQ(mcvo::ReadFileToString(replay / "trajectory.tum"),
             mcvo::ReadFileToString(out1 / "trajectory.tum"));
   EXPECT_EQ(mcvo::ReadFileToString(replay / "scale_log.csv"), mcvo::ReadFileToString(out1 / "scale_log.csv"));
+
+  // The frontend's stage profile in run.json's timing (as `mcvo track
+  // --timing`) when images were tracked; a replay has no frontend stages.
+  const nlohmann::json& stages = run1["timing"]["frontend_stages_s"];
+  for (const char* stage : {"decode", "decode_wait", "clahe", "pyramid", "lk", "detection", "ransac", "anchor",
+                            "selection", "cross_camera", "track_wall"}) {
+    ASSERT_TRUE(stages.contains(stage)) << stage;
+    EXPECT_GE(stages[stage].get<double>(), 0.0) << stage;
+  }
+  EXPECT_GT(stages["decode"].get<double>(), 0.0);
+  EXPECT_GT(stages["detection"].get<double>(), 0.0);
+  EXPECT_FALSE(ReadJson(replay / "run.json")["timing"].contains("frontend_stages_s"));
 }
 
 TEST(RunCli, BadInputFailsCleanlyWithoutOutput) {

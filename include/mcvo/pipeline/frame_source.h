@@ -12,6 +12,9 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "mcvo/camera/camera.h"
 #include "mcvo/dataset/dataset.h"
@@ -32,6 +35,24 @@ struct FrontendItem {
   double track_seconds = 0.0;
   double seconds = 0.0;
   double decode_seconds = 0.0;
+};
+
+// The frontend's seconds per stage, summed over the frames added (wall
+// time, not deterministic; for logs, run.json's timing and benchmarks):
+// decode (on the decoding threads), decode_wait, track_wall (the producer
+// thread, FrontendItem), and the stages of the camera trackers summed over
+// the cameras (CameraFrameStats) and cross_camera over the camera pairs.
+// All zero but track_wall for a replayed track file.
+struct FrontendStageSeconds {
+  int frames = 0;
+  double decode = 0.0, decode_wait = 0.0, clahe = 0.0, pyramid = 0.0, lk = 0.0, detect = 0.0, ransac = 0.0,
+         anchor = 0.0, select = 0.0, cross_camera = 0.0, track_wall = 0.0;
+
+  void Add(const FrontendItem& item);
+  // name -> seconds per frame, in the order of the profile (names as in
+  // `mcvo track --timing`: decode, decode_wait, clahe, pyramid, lk,
+  // detection, ransac, anchor, selection, cross_camera, track_wall).
+  std::vector<std::pair<std::string, double>> PerFrame() const;
 };
 
 class FrameSource {
