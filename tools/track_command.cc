@@ -113,8 +113,10 @@ void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const st
   json["note"] =
       "wall-clock timings, not deterministic. Stage seconds are per rig frame, summed over cameras "
       "(the work of one frame on one core; cross_camera: summed over camera pairs); decode is the decoding "
-      "of the images on the decoding threads (summed over cameras); clahe is the contrast equalisation before "
-      "the pyramid; track_wall is the wall time of MultiCameraTracker::Track (cameras, then camera pairs, in parallel); decode_wait is the time "
+      "of the images on the decoding threads (summed over cameras); clahe is the contrast equalisation "
+      "before "
+      "the pyramid; track_wall is the wall time of MultiCameraTracker::Track (cameras, then camera pairs, in "
+      "parallel); decode_wait is the time "
       "the tracking thread was blocked waiting for decoded images (0 when the decoding threads keep up); "
       "write is the time of the writing thread, which runs beside the tracking thread; "
       "total is the wall time per frame.";

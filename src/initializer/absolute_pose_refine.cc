@@ -29,7 +29,8 @@ class FixedPointBearingCost final : public ceres::SizedCostFunction<2, 7> {
 }  // namespace
 
 Rigid3d RefineAbsolutePose(const opengv::bearingVectors_t& bearings, const opengv::points_t& points,
-                           const std::vector<int>& rows, double focal, const Rigid3d& start, int max_iterations) {
+                           const std::vector<int>& rows, double focal, const Rigid3d& start,
+                           int max_iterations) {
   MCVO_CHECK(bearings.size() == points.size());
   if (rows.empty()) return start;
   PoseBlock block = ToPoseBlock(start);
@@ -37,11 +38,12 @@ Rigid3d RefineAbsolutePose(const opengv::bearingVectors_t& bearings, const openg
   for (const int i : rows) {
     MCVO_CHECK(i >= 0 && static_cast<size_t>(i) < points.size());
     problem.AddResidualBlock(
-        new FixedPointBearingCost(bearings[static_cast<size_t>(i)], points[static_cast<size_t>(i)], focal), nullptr,
-        block.data());
+        new FixedPointBearingCost(bearings[static_cast<size_t>(i)], points[static_cast<size_t>(i)], focal),
+        nullptr, block.data());
   }
-  problem.SetManifold(block.data(),
-                      new ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>());
+  problem.SetManifold(
+      block.data(),
+      new ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>());
   ceres::Solver::Options options = DeterministicBaOptions(max_iterations);
   options.linear_solver_type = ceres::DENSE_QR;
   ceres::Solver::Summary summary;

@@ -179,10 +179,17 @@ void FrontendStageSeconds::Add(const FrontendItem& item) {
 
 std::vector<std::pair<std::string, double>> FrontendStageSeconds::PerFrame() const {
   const double n = std::max(1, frames);
-  return {{"decode", decode / n},   {"decode_wait", decode_wait / n}, {"clahe", clahe / n},
-          {"pyramid", pyramid / n}, {"lk", lk / n},                   {"detection", detect / n},
-          {"ransac", ransac / n},   {"anchor", anchor / n},           {"selection", select / n},
-          {"cross_camera", cross_camera / n}, {"track_wall", track_wall / n}};
+  return {{"decode", decode / n},
+          {"decode_wait", decode_wait / n},
+          {"clahe", clahe / n},
+          {"pyramid", pyramid / n},
+          {"lk", lk / n},
+          {"detection", detect / n},
+          {"ransac", ransac / n},
+          {"anchor", anchor / n},
+          {"selection", select / n},
+          {"cross_camera", cross_camera / n},
+          {"track_wall", track_wall / n}};
 }
 
 RigFrameObservations ToObservations(const Rig& rig, const MultiCameraFrame& frame) {

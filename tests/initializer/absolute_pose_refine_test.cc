@@ -57,9 +57,9 @@ double Cost(const Scene& s, const std::vector<int>& rows, const Rigid3d& world_f
   double sum = 0.0;
   for (const int i : rows) {
     const Eigen::Vector3d f = s.bearings[static_cast<size_t>(i)];
-    const Eigen::Vector3d d =
-        (world_from_cam.rotation.conjugate() * (s.points[static_cast<size_t>(i)] - world_from_cam.translation))
-            .normalized();
+    const Eigen::Vector3d d = (world_from_cam.rotation.conjugate() *
+                               (s.points[static_cast<size_t>(i)] - world_from_cam.translation))
+                                  .normalized();
     sum += (kFocal * TangentBasis(f).transpose() * d).squaredNorm();
   }
   return sum;
@@ -113,7 +113,8 @@ TEST(RefineAbsolutePose, MinimisesTheTangentPlaneErrorOnNoisyBearings) {
   std::normal_distribution<double> noise(0.0, 0.5 / kFocal);
   for (int trial = 0; trial < 10; ++trial) {
     Scene s = MakeScene(60, &rng);
-    for (Eigen::Vector3d& f : s.bearings) f = (f + TangentBasis(f) * Eigen::Vector2d(noise(rng), noise(rng))).normalized();
+    for (Eigen::Vector3d& f : s.bearings)
+      f = (f + TangentBasis(f) * Eigen::Vector2d(noise(rng), noise(rng))).normalized();
     const std::vector<int> rows = AllRows(s.points.size());
     const Rigid3d start = Perturbed(s.world_from_cam, 0.02, 0.2, &rng);
     const Rigid3d refined = RefineAbsolutePose(s.bearings, s.points, rows, kFocal, start);

@@ -148,14 +148,15 @@ TEST(TrackCli, TimingNamesEveryStage) {
   mcvo::WriteFileAtomic(no_clahe, "{\"frontend\": {\"clahe\": {\"enabled\": false}}}\n");
   for (const bool clahe : {true, false}) {
     const fs::path timing = Root() / (clahe ? "timing_clahe.json" : "timing_plain.json");
-    const Result r = RunMcvo("track --dataset " + dataset.string() + " --out " + (Root() / "timed.bin").string() +
-                             " --timing " + timing.string() + (clahe ? "" : " --config " + no_clahe.string()));
+    const Result r =
+        RunMcvo("track --dataset " + dataset.string() + " --out " + (Root() / "timed.bin").string() +
+                " --timing " + timing.string() + (clahe ? "" : " --config " + no_clahe.string()));
     ASSERT_EQ(r.exit_code, 0) << r.output;
     const nlohmann::json json = nlohmann::json::parse(mcvo::ReadFileToString(timing));
     EXPECT_EQ(json.at("frames"), 4);
     const nlohmann::json& seconds = json.at("seconds_per_frame");
-    for (const char* key : {"decode", "decode_wait", "clahe", "pyramid", "lk", "detection", "ransac", "anchor",
-                            "selection", "cross_camera", "track_wall", "write", "total"}) {
+    for (const char* key : {"decode", "decode_wait", "clahe", "pyramid", "lk", "detection", "ransac",
+                            "anchor", "selection", "cross_camera", "track_wall", "write", "total"}) {
       ASSERT_TRUE(seconds.contains(key)) << key;
       EXPECT_GE(seconds.at(key).get<double>(), 0.0) << key;
     }
