@@ -50,7 +50,6 @@ Enum ParseEnumFlag(const EnumName<Enum> (&table)[N], const std::string& flag, co
 
 // Whole-run sums behind the summary log line and the --timing file.
 struct RunTotals {
-  int frames = 0;
   int camera_frames = 0;  // camera images that were present
   int64_t inliers = 0, outliers = 0;
   double sfd_sum = 0.0;
@@ -66,7 +65,6 @@ struct RunTotals {
 
   void Add(const FrontendItem& item) {
     const MultiCameraFrame& frame = item.frame;
-    ++frames;
     stages.Add(item);
     cross_matches += static_cast<int64_t>(frame.cross_matches.size());
     for (const CameraFrameResult& camera : frame.cameras) {
@@ -108,7 +106,7 @@ void AppendStatsRows(const MultiCameraFrame& frame, const Rig& rig, std::string*
 // The --timing file: wall-clock numbers, so NOT deterministic (docs/track-format.md).
 void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const std::string& detector,
                  const std::string& selection, int cameras, int tracker_threads, int decode_threads) {
-  const double n = std::max(1, t.frames);
+  const double n = std::max(1, t.stages.frames);
   nlohmann::ordered_json json;
   json["note"] =
       "wall-clock timings, not deterministic. Stage seconds are per rig frame, summed over cameras "
@@ -122,7 +120,7 @@ void WriteTiming(const std::filesystem::path& path, const RunTotals& t, const st
       "total is the wall time per frame.";
   json["detector"] = detector;
   json["selection"] = selection;
-  json["frames"] = t.frames;
+  json["frames"] = t.stages.frames;
   json["cameras"] = cameras;
   json["tracker_threads"] = tracker_threads;
   json["decode_threads"] = decode_threads;
@@ -249,7 +247,7 @@ int RunTrack(int argc, const char* const* argv) {
     AppendStatsRows(item->frame, index.rig, &csv);
     totals.write += SecondsSince(start);
     totals.Add(*item);
-    progress.Update(totals.frames);
+    progress.Update(totals.stages.frames);
   }
   progress.Finish();
   totals.total = SecondsSince(run_start);
@@ -263,12 +261,12 @@ int RunTrack(int argc, const char* const* argv) {
                 EnumToName(kFeatureSelectionNames, options.frontend.selection), index.rig.NumCameras(),
                 worker_threads, worker_threads);
   }
-  MCVO_LOG(kInfo, "track: ", totals.frames, " frames in ", FormatFixed(totals.total, 2), " s (",
-           FormatFixed(totals.frames / std::max(totals.total, 1e-9), 2), " fps); mean track length ",
+  MCVO_LOG(kInfo, "track: ", totals.stages.frames, " frames in ", FormatFixed(totals.total, 2), " s (",
+           FormatFixed(totals.stages.frames / std::max(totals.total, 1e-9), 2), " fps); mean track length ",
            FormatFixed(totals.MeanTrackLength(), 2), " frames over ", totals.track_lengths.size(),
            " tracks; RANSAC inlier ratio ", FormatFixed(totals.InlierRatio(), 4), "; mean SFD ",
            FormatFixed(totals.MeanSfd(), 3), "; ",
-           FormatFixed(static_cast<double>(totals.cross_matches) / std::max(1, totals.frames), 1),
+           FormatFixed(static_cast<double>(totals.cross_matches) / std::max(1, totals.stages.frames), 1),
            " cross-camera matches per frame; wrote ", out_path);
   return kExitOk;
 }
