@@ -10,6 +10,7 @@
 #include <utility>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
 #include "mcvo/backend/rig_pnp.h"
@@ -218,6 +219,22 @@ Located LocateByTracking(const DatasetIndex& index, const LoopClosureOptions& cl
 
 }  // namespace
 
+cv::Mat LoopGreyImage(const cv::Mat& decoded, const std::filesystem::path& path) {
+  if (decoded.depth() == CV_8U) {
+    if (decoded.channels() == 1) return decoded;  // what IMREAD_GRAYSCALE gives as well
+    cv::Mat grey;
+    if (decoded.channels() == 3) {
+      cv::cvtColor(decoded, grey, cv::COLOR_BGR2GRAY);
+      return grey;
+    }
+    if (decoded.channels() == 4) {
+      cv::cvtColor(decoded, grey, cv::COLOR_BGRA2GRAY);
+      return grey;
+    }
+  }
+  return cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+}
+
 LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& kf, int threads,
                             std::vector<ColmapColorSamples>* colors) {
   const Rig& rig = index.rig;
@@ -237,10 +254,8 @@ LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& k
         lk.images[c] = cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
         return;
       }
-      // An 8-bit one-channel decode is what IMREAD_GRAYSCALE gives as well.
       const cv::Mat decoded = DecodeColmapColorImage(paths[c]);
-      lk.images[c] =
-          decoded.type() == CV_8UC1 ? decoded : cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
+      lk.images[c] = LoopGreyImage(decoded, paths[c]);
       std::vector<Eigen::Vector2d> pixels;
       for (const MapObservation& ob : kf.observations) {
         if (ob.camera == c) pixels.push_back(ob.pixel);

@@ -23,7 +23,10 @@
 // frame order, features per camera in fixed slots.
 #pragma once
 
+#include <filesystem>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "mcvo/colmap/colmap_model.h"
 #include "mcvo/config/pipeline_options.h"
@@ -39,10 +42,21 @@ namespace mcvo::pipeline_internal {
 // world points. Throws InputError naming an image that cannot be read.
 // colors (optional): per camera, the COLMAP export's colours at the
 // keyframe's observation pixels of that camera (colmap_model.h
-// SampleColmapColors), from the same decode where the image is 8-bit grey
-// (a colour or 16-bit image is decoded once for the colours and once grey).
+// SampleColmapColors), from the one decode that also gives the grey image
+// (LoopGreyImage; only a 16-bit image is decoded a second time, grey).
 LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& keyframe, int threads,
                             std::vector<ColmapColorSamples>* colors = nullptr);
+
+// The loop closer's 8-bit grey image of `decoded` (DecodeColmapColorImage of
+// `path`): the decode itself when it is 8-bit grey; OpenCV's BT.601 grey
+// (cv::cvtColor) of an 8-bit BGR or BGRA decode, so that a colour image is
+// decoded once, not again as grey (a second decode of a full-resolution
+// colour PNG costs as much as the first); otherwise (16-bit, or `decoded`
+// empty) `path` decoded as IMREAD_GRAYSCALE. The frontend decodes its own
+// grey images (IMREAD_GRAYSCALE): for a colour file the two greys may differ
+// by a grey level, which the loop closer's ORB descriptors do not need to
+// share with the tracker.
+cv::Mat LoopGreyImage(const cv::Mat& decoded, const std::filesystem::path& path);
 
 struct RelocalisationSummary {
   int attempted = 0;  // segments after the first with keyframes on both sides
