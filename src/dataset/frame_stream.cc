@@ -8,6 +8,7 @@
 // the output does not depend on the number of threads or on scheduling.
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <condition_variable>
 #include <exception>
 #include <mutex>
@@ -17,6 +18,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/util/error.h"
@@ -32,6 +34,8 @@ struct CameraSize {
   int height = 0;
 };
 
+// The file's decode as it is (colour, 16-bit); the caller takes its grey
+// with GreyOfDecodedImage.
 cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
@@ -41,8 +45,7 @@ cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera)
   if (std::filesystem::file_size(path, ec) == 0 && !ec) MCVO_THROW_INPUT(path.string(), ": empty image file (0 bytes)");
   cv::Mat image;
   try {
-    // IMREAD_GRAYSCALE gives 8-bit grey for 8/16-bit, grey or colour files.
-    image = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+    image = cv::imread(path.string(), cv::IMREAD_ANYCOLOR | cv::IMREAD_ANYDEPTH);
   } catch (const cv::Exception& e) {
     MCVO_THROW_INPUT(path.string(), ": cannot decode image: ", e.what());
   }
@@ -58,6 +61,34 @@ cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera)
 
 }  // namespace
 
+cv::Mat GreyOfDecodedImage(const cv::Mat& decoded) {
+  if (decoded.empty()) return cv::Mat();
+  cv::Mat eight = decoded;
+  if (decoded.depth() == CV_16U) {
+    // The high byte of each value: exactly what libpng's strip_16 gives
+    // IMREAD_GRAYSCALE (convertTo would round instead).
+    eight.create(decoded.size(), CV_MAKETYPE(CV_8U, decoded.channels()));
+    const int values = decoded.cols * decoded.channels();
+    for (int y = 0; y < decoded.rows; ++y) {
+      const uint16_t* in = decoded.ptr<uint16_t>(y);
+      uint8_t* out = eight.ptr<uint8_t>(y);
+      for (int x = 0; x < values; ++x) out[x] = static_cast<uint8_t>(in[x] >> 8);
+    }
+  } else if (decoded.depth() != CV_8U) {
+    decoded.convertTo(eight, CV_MAKETYPE(CV_8U, decoded.channels()));
+  }
+  if (eight.channels() == 1) return eight;
+  cv::Mat grey;
+  if (eight.channels() == 3) {
+    cv::cvtColor(eight, grey, cv::COLOR_BGR2GRAY);
+  } else if (eight.channels() == 4) {
+    cv::cvtColor(eight, grey, cv::COLOR_BGRA2GRAY);
+  } else {
+    cv::extractChannel(eight, grey, 0);
+  }
+  return grey;
+}
+
 struct FrameStream::Impl {
   struct Slot {
     bool ready = false;
@@ -68,6 +99,7 @@ struct FrameStream::Impl {
   std::vector<DatasetFrame> frames;
   std::vector<CameraSize> cameras;
   int prefetch = 1;
+  bool keep_decoded = false;
 
   std::mutex mutex;
   std::condition_variable work_cv;   // workers wait for a claimable frame
@@ -86,8 +118,12 @@ struct FrameStream::Impl {
     frame.t_ns = source.t_ns;
     frame.images.resize(source.images.size());
     const auto start = std::chrono::steady_clock::now();
+    if (keep_decoded) frame.decoded.resize(source.images.size());
     for (size_t c = 0; c < source.images.size(); ++c) {
-      if (!source.images[c].empty()) frame.images[c] = DecodeImage(source.images[c], cameras[c]);
+      if (source.images[c].empty()) continue;
+      cv::Mat decoded = DecodeImage(source.images[c], cameras[c]);
+      frame.images[c] = GreyOfDecodedImage(decoded);
+      if (keep_decoded) frame.decoded[c] = std::move(decoded);
     }
     frame.decode_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return frame;
@@ -143,6 +179,7 @@ FrameStream::FrameStream(const DatasetIndex& index, const FrameStreamOptions& op
                    " images for ", impl_->cameras.size(), " cameras");
   }
   impl_->prefetch = options.prefetch;
+  impl_->keep_decoded = options.keep_decoded;
   impl_->slots.resize(static_cast<size_t>(options.prefetch));
   int threads = ResolveThreads(options.threads);
   threads =

@@ -9,8 +9,6 @@
 #include <thread>
 #include <utility>
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
 #include "mcvo/backend/rig_pnp.h"
@@ -219,30 +217,31 @@ Located LocateByTracking(const DatasetIndex& index, const LoopClosureOptions& cl
 
 }  // namespace
 
-cv::Mat LoopGreyImage(const cv::Mat& decoded, const std::filesystem::path& path) {
-  if (decoded.depth() == CV_8U) {
-    if (decoded.channels() == 1) return decoded;  // what IMREAD_GRAYSCALE gives as well
-    cv::Mat grey;
-    if (decoded.channels() == 3) {
-      cv::cvtColor(decoded, grey, cv::COLOR_BGR2GRAY);
-      return grey;
-    }
-    if (decoded.channels() == 4) {
-      cv::cvtColor(decoded, grey, cv::COLOR_BGRA2GRAY);
-      return grey;
-    }
+LoopKeyframe LoopKeyframeWithoutImages(const KeyframeEstimate& kf, int num_cameras) {
+  LoopKeyframe lk;
+  lk.frame_index = kf.frame_index;
+  lk.t_ns = kf.t_ns;
+  lk.world_from_rig = kf.world_from_rig;
+  lk.images.resize(static_cast<size_t>(num_cameras));
+  for (size_t k = 0; k < kf.observations.size() && k < kf.observation_points.size(); ++k) {
+    const MapObservation& ob = kf.observations[k];
+    lk.points.push_back({ob.camera, ob.landmark_id, ob.pixel, kf.observation_points[k]});
   }
-  return cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+  return lk;
+}
+
+ColmapColorSamples SampleKeyframeColors(const cv::Mat& decoded, const KeyframeEstimate& kf, int camera) {
+  std::vector<Eigen::Vector2d> pixels;
+  for (const MapObservation& ob : kf.observations) {
+    if (ob.camera == camera) pixels.push_back(ob.pixel);
+  }
+  return SampleColmapColors(decoded, std::move(pixels));
 }
 
 LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& kf, int threads,
                             std::vector<ColmapColorSamples>* colors) {
   const Rig& rig = index.rig;
-  LoopKeyframe lk;
-  lk.frame_index = kf.frame_index;
-  lk.t_ns = kf.t_ns;
-  lk.world_from_rig = kf.world_from_rig;
-  lk.images.resize(static_cast<size_t>(rig.NumCameras()));
+  LoopKeyframe lk = LoopKeyframeWithoutImages(kf, rig.NumCameras());
   if (colors != nullptr) colors->assign(static_cast<size_t>(rig.NumCameras()), ColmapColorSamples());
   if (kf.frame_index >= 0 && kf.frame_index < static_cast<int>(index.frames.size())) {
     const std::vector<std::filesystem::path>& paths =
@@ -250,27 +249,17 @@ LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& k
     const int n = static_cast<int>(std::min(paths.size(), lk.images.size()));
     ParallelFor(n, std::max(1, threads), [&](int c) {
       if (paths[c].empty()) return;
-      if (colors == nullptr) {
-        lk.images[c] = cv::imread(paths[c].string(), cv::IMREAD_GRAYSCALE);
-        return;
-      }
+      // One decode for the grey image (the frontend's: dataset.h
+      // GreyOfDecodedImage) and the colours.
       const cv::Mat decoded = DecodeColmapColorImage(paths[c]);
-      lk.images[c] = LoopGreyImage(decoded, paths[c]);
-      std::vector<Eigen::Vector2d> pixels;
-      for (const MapObservation& ob : kf.observations) {
-        if (ob.camera == c) pixels.push_back(ob.pixel);
-      }
-      (*colors)[static_cast<size_t>(c)] = SampleColmapColors(decoded, std::move(pixels));
+      lk.images[c] = GreyOfDecodedImage(decoded);
+      if (colors != nullptr) (*colors)[static_cast<size_t>(c)] = SampleKeyframeColors(decoded, kf, c);
     });
     for (int c = 0; c < n; ++c) {
       if (!paths[c].empty() && lk.images[c].empty()) {
         MCVO_THROW_INPUT(paths[c].string(), ": cannot read the image (loop closure)");
       }
     }
-  }
-  for (size_t k = 0; k < kf.observations.size() && k < kf.observation_points.size(); ++k) {
-    const MapObservation& ob = kf.observations[k];
-    lk.points.push_back({ob.camera, ob.landmark_id, ob.pixel, kf.observation_points[k]});
   }
   return lk;
 }

@@ -23,10 +23,7 @@
 // frame order, features per camera in fixed slots.
 #pragma once
 
-#include <filesystem>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "mcvo/colmap/colmap_model.h"
 #include "mcvo/config/pipeline_options.h"
@@ -43,20 +40,14 @@ namespace mcvo::pipeline_internal {
 // colors (optional): per camera, the COLMAP export's colours at the
 // keyframe's observation pixels of that camera (colmap_model.h
 // SampleColmapColors), from the one decode that also gives the grey image
-// (LoopGreyImage; only a 16-bit image is decoded a second time, grey).
+// (dataset.h GreyOfDecodedImage, as the frontend's).
 LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& keyframe, int threads,
                             std::vector<ColmapColorSamples>* colors = nullptr);
-
-// The loop closer's 8-bit grey image of `decoded` (DecodeColmapColorImage of
-// `path`): the decode itself when it is 8-bit grey; OpenCV's BT.601 grey
-// (cv::cvtColor) of an 8-bit BGR or BGRA decode, so that a colour image is
-// decoded once, not again as grey (a second decode of a full-resolution
-// colour PNG costs as much as the first); otherwise (16-bit, or `decoded`
-// empty) `path` decoded as IMREAD_GRAYSCALE. The frontend decodes its own
-// grey images (IMREAD_GRAYSCALE): for a colour file the two greys may differ
-// by a grey level, which the loop closer's ORB descriptors do not need to
-// share with the tracker.
-cv::Mat LoopGreyImage(const cv::Mat& decoded, const std::filesystem::path& path);
+// The same without reading the images: one empty Mat per camera.
+LoopKeyframe LoopKeyframeWithoutImages(const KeyframeEstimate& keyframe, int num_cameras);
+// The COLMAP colours of the keyframe's observations in `camera`, from that
+// camera's image decoded (DecodeColmapColorImage).
+ColmapColorSamples SampleKeyframeColors(const cv::Mat& decoded, const KeyframeEstimate& keyframe, int camera);
 
 struct RelocalisationSummary {
   int attempted = 0;  // segments after the first with keyframes on both sides

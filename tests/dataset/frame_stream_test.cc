@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "dataset/dataset_fixtures.h"
 #include "mcvo/dataset/dataset.h"
@@ -162,6 +163,61 @@ TEST(FrameStream, ColourAnd16BitImagesBecome8BitGrey) {
     EXPECT_EQ(image.type(), CV_8UC1);
     EXPECT_EQ(cv::norm(image, grey, cv::NORM_INF), 0.0);
   }
+}
+
+// keep_decoded: each image's decode beside its grey image, which is
+// GreyOfDecodedImage of it; the grey images are the same with or without.
+TEST(FrameStream, KeepsTheDecodeBesideTheGreyImage) {
+  const fs::path root = CopyDataset(Stereo(), kSuite, "keep");
+  const DatasetIndex index = Open(root);
+  const cv::Mat grey = cv::imread(index.frames[0].images[0].string(), cv::IMREAD_GRAYSCALE);
+  cv::Mat colour;
+  cv::merge(std::vector<cv::Mat>{grey, grey / 2, 255 - grey}, colour);
+  cv::imwrite(index.frames[0].images[0].string(), colour);
+  FrameStreamOptions keep{1, 2};
+  keep.keep_decoded = true;
+  FrameStream with(index, keep);
+  FrameStream without(index, {1, 2});
+  const std::optional<FrameImages> a = with.Next(), b = without.Next();
+  ASSERT_TRUE(a && b);
+  ASSERT_EQ(a->decoded.size(), 2u);
+  EXPECT_TRUE(b->decoded.empty());
+  EXPECT_EQ(a->decoded[0].type(), CV_8UC3);
+  EXPECT_EQ(cv::norm(a->decoded[0], colour, cv::NORM_INF), 0.0);
+  EXPECT_EQ(a->decoded[1].type(), CV_8UC1);
+  EXPECT_EQ(a->decoded[1].data, a->images[1].data);  // a grey decode is its own grey image
+  for (size_t c = 0; c < 2; ++c) {
+    EXPECT_EQ(cv::norm(a->images[c], GreyOfDecodedImage(a->decoded[c]), cv::NORM_INF), 0.0) << c;
+    EXPECT_EQ(cv::norm(a->images[c], b->images[c], cv::NORM_INF), 0.0) << c;
+  }
+}
+
+TEST(GreyOfDecodedImage, EachDepthAndLayout) {
+  cv::Mat grey(3, 4, CV_8UC1);
+  for (int i = 0; i < 12; ++i) grey.at<uint8_t>(i / 4, i % 4) = static_cast<uint8_t>(20 * i + 7);
+  EXPECT_EQ(GreyOfDecodedImage(grey).data, grey.data);  // no copy
+  EXPECT_TRUE(GreyOfDecodedImage(cv::Mat()).empty());
+  // 16-bit: the high byte, whatever the low one (not rounded).
+  cv::Mat wide(3, 4, CV_16UC1);
+  for (int i = 0; i < 12; ++i) wide.at<uint16_t>(i / 4, i % 4) = static_cast<uint16_t>(256 * (20 * i + 7) + 255);
+  EXPECT_EQ(cv::norm(GreyOfDecodedImage(wide), grey, cv::NORM_INF), 0.0);
+  // Colour: cv::cvtColor's grey; BGRA: of its colour channels.
+  cv::Mat bgr;
+  cv::merge(std::vector<cv::Mat>{grey, 255 - grey, grey / 3}, bgr);
+  cv::Mat expected;
+  cv::cvtColor(bgr, expected, cv::COLOR_BGR2GRAY);
+  EXPECT_EQ(cv::norm(GreyOfDecodedImage(bgr), expected, cv::NORM_INF), 0.0);
+  cv::Mat bgra;
+  cv::merge(std::vector<cv::Mat>{grey, 255 - grey, grey / 3, cv::Mat(3, 4, CV_8UC1, cv::Scalar(9))}, bgra);
+  EXPECT_EQ(cv::norm(GreyOfDecodedImage(bgra), expected, cv::NORM_INF), 0.0);
+  // 16-bit colour: high bytes, then the grey.
+  cv::Mat wide_bgr;
+  cv::merge(std::vector<cv::Mat>{wide, wide, wide}, wide_bgr);
+  EXPECT_EQ(cv::norm(GreyOfDecodedImage(wide_bgr), grey, cv::NORM_INF), 0.0);
+  // Float: converted to 8-bit (rounded, saturated).
+  cv::Mat real;
+  grey.convertTo(real, CV_32F);
+  EXPECT_EQ(cv::norm(GreyOfDecodedImage(real), grey, cv::NORM_INF), 0.0);
 }
 
 TEST(FrameStream, BadOptions) {

@@ -1,5 +1,5 @@
-// The loop closer's keyframe input (relocalise_segments.h ToLoopKeyframe,
-// LoopGreyImage): one decode per image gives both the grey image and the
+// The loop closer's keyframe input (relocalise_segments.h ToLoopKeyframe):
+// one decode per image gives both the grey image (the frontend's) and the
 // COLMAP colours, for grey, colour, colour-with-alpha and 16-bit files.
 #include <cstdint>
 #include <filesystem>
@@ -104,20 +104,29 @@ TEST_F(LoopKeyframeTest, OneDecodeGivesTheGreyImageAndTheColours) {
       ASSERT_EQ(image.type(), CV_8UC1);
       ASSERT_EQ(image.size(), cv::Size(64, 48));
     }
-    // Colour: OpenCV's BT.601 grey of the colour decode, within a grey level
-    // of the decoder's own grey (libpng's conversion rounds differently).
+    // Colour: OpenCV's BT.601 grey of the colour decode (dataset.h
+    // GreyOfDecodedImage, as the frontend's), within a grey level of the
+    // decoder's own grey (libpng's conversion truncates).
     cv::Mat expected;
     cv::cvtColor(bgr_, expected, cv::COLOR_BGR2GRAY);
     EXPECT_EQ(MaxAbsDiff(lk.images[0], expected), 0);
     EXPECT_LE(MaxAbsDiff(lk.images[0], ReadGrey("colour.png")), 1);
     // Grey: the file's pixels.
     EXPECT_EQ(MaxAbsDiff(lk.images[1], grey_), 0);
-    // 16-bit: decoded a second time, as IMREAD_GRAYSCALE does.
+    // 16-bit: the high byte, as IMREAD_GRAYSCALE gives it.
     EXPECT_EQ(MaxAbsDiff(lk.images[2], ReadGrey("wide.png")), 0);
     // Colour with alpha: the grey of its colour channels.
     cv::Mat bgr3 = cv::imread((dir_ / "alpha.png").string(), cv::IMREAD_COLOR);
     cv::cvtColor(bgr3, expected, cv::COLOR_BGR2GRAY);
     EXPECT_EQ(MaxAbsDiff(lk.images[3], expected), 0);
+
+    // Every grey image is the frontend's (FrameStream's) of the same file.
+    const char* names[] = {"colour.png", "grey.png", "wide.png", "alpha.png"};
+    for (size_t c = 0; c < 4; ++c) {
+      const cv::Mat decoded =
+          cv::imread((dir_ / names[c]).string(), cv::IMREAD_ANYCOLOR | cv::IMREAD_ANYDEPTH);
+      EXPECT_EQ(MaxAbsDiff(lk.images[c], GreyOfDecodedImage(decoded)), 0) << names[c];
+    }
 
     // The colours at the observation pixel (an integer pixel: no blending),
     // RGB from the same decode.
@@ -141,11 +150,26 @@ TEST_F(LoopKeyframeTest, OneDecodeGivesTheGreyImageAndTheColours) {
   }
 }
 
-TEST_F(LoopKeyframeTest, WithoutColoursEveryImageIsTheDecodersGrey) {
-  const LoopKeyframe lk = ToLoopKeyframe(index_, keyframe_, 2);
+TEST_F(LoopKeyframeTest, WithoutColoursTheGreyImagesAreTheSame) {
+  std::vector<ColmapColorSamples> colors;
+  const LoopKeyframe with = ToLoopKeyframe(index_, keyframe_, 2, &colors);
+  const LoopKeyframe without = ToLoopKeyframe(index_, keyframe_, 2);
+  ASSERT_EQ(without.images.size(), 4u);
+  for (size_t c = 0; c < 4; ++c) EXPECT_EQ(MaxAbsDiff(with.images[c], without.images[c]), 0) << c;
+}
+
+TEST_F(LoopKeyframeTest, WithoutImagesEverythingButTheImages) {
+  const LoopKeyframe lk = LoopKeyframeWithoutImages(keyframe_, 4);
   ASSERT_EQ(lk.images.size(), 4u);
-  const char* names[] = {"colour.png", "grey.png", "wide.png", "alpha.png"};
-  for (size_t c = 0; c < 4; ++c) EXPECT_EQ(MaxAbsDiff(lk.images[c], ReadGrey(names[c])), 0) << names[c];
+  for (const cv::Mat& image : lk.images) EXPECT_TRUE(image.empty());
+  const LoopKeyframe full = ToLoopKeyframe(index_, keyframe_, 1);
+  ASSERT_EQ(lk.points.size(), full.points.size());
+  for (size_t k = 0; k < lk.points.size(); ++k) {
+    EXPECT_EQ(lk.points[k].camera, full.points[k].camera);
+    EXPECT_EQ(lk.points[k].landmark_id, full.points[k].landmark_id);
+    EXPECT_EQ(lk.points[k].pixel, full.points[k].pixel);
+    EXPECT_EQ(lk.points[k].point_in_world, full.points[k].point_in_world);
+  }
 }
 
 TEST_F(LoopKeyframeTest, AnUnreadableImageIsAnErrorNamingIt) {
@@ -157,16 +181,6 @@ TEST_F(LoopKeyframeTest, AnUnreadableImageIsAnErrorNamingIt) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("grey.png"), std::string::npos) << e.what();
   }
-}
-
-TEST(LoopGreyImage, KeepsAGreyDecodeAndFallsBackToTheFileOtherwise) {
-  const cv::Mat grey = Pattern(16, 8, 9);
-  const cv::Mat same = LoopGreyImage(grey, "/nonexistent.png");
-  EXPECT_EQ(same.data, grey.data);  // no copy
-  // Nothing decoded and no file: empty, for the caller's error.
-  EXPECT_TRUE(LoopGreyImage(cv::Mat(), "/nonexistent.png").empty());
-  cv::Mat wide(8, 16, CV_16UC1, cv::Scalar(1000));
-  EXPECT_TRUE(LoopGreyImage(wide, "/nonexistent.png").empty());
 }
 
 }  // namespace

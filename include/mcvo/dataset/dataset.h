@@ -95,10 +95,25 @@ std::string DetectDatasetFormat(const std::filesystem::path& root);
 // when max_angle_deg >= 180). Empty Mat when every pixel is valid.
 cv::Mat ValidPixelMask(const Camera& camera, double max_angle_deg = 180.0);
 
+// The 8-bit grey image of a decoded image file (a decode with
+// cv::IMREAD_ANYCOLOR | cv::IMREAD_ANYDEPTH), the one every stage uses: an
+// 8-bit grey decode as it is (no copy); 16-bit, its high byte (what
+// IMREAD_GRAYSCALE gives for a 16-bit PNG); colour (BGR, or BGRA: its colour
+// channels), OpenCV's BT.601 grey (cv::cvtColor); any other depth converted
+// to 8-bit first (cv::Mat::convertTo). Empty for an empty decode. The
+// frontend (FrameStream) and the loop closer take their grey images this way
+// from one decode, which also gives the COLMAP colours: a colour file is
+// decoded once, not once in colour and once grey.
+cv::Mat GreyOfDecodedImage(const cv::Mat& decoded);
+
 struct FrameImages {
   int index = 0;  // position in DatasetIndex::frames
   int64_t t_ns = 0;
   std::vector<cv::Mat> images;  // CV_8UC1 per camera; empty Mat = missing
+  // With FrameStreamOptions::keep_decoded: per camera the decode itself
+  // (colour or 16-bit as the file is; images[c] is its GreyOfDecodedImage).
+  // Empty otherwise.
+  std::vector<cv::Mat> decoded;
   // Wall time of decoding these images on the decoding thread, summed over
   // the cameras (timing only: not deterministic).
   double decode_seconds = 0.0;
@@ -107,6 +122,10 @@ struct FrameImages {
 struct FrameStreamOptions {
   int threads = 0;   // decoding threads; 0: hardware concurrency
   int prefetch = 8;  // frames decoded ahead at most (bounded memory)
+  // Hand out each image's decode beside its grey image (FrameImages::decoded):
+  // for `mcvo run`, whose loop closer describes keyframes and samples their
+  // COLMAP colours without decoding them again (pipeline/loop_image_cache.h).
+  bool keep_decoded = false;
 };
 
 // Decodes the images of a DatasetIndex ahead of use in background threads,
