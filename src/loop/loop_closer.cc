@@ -35,6 +35,37 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 
 }  // namespace
 
+// What of a keyframe's features its images give (LoopCloser::
+// ExtractImageFeatures), and the points they were extracted at.
+struct LoopImageFeatures {
+  // One camera's ORB detections and descriptors at the landmark pixels.
+  struct CameraFeatures {
+    std::vector<cv::KeyPoint> detections;
+    cv::Mat detection_descriptors;
+    std::vector<int> point_index;  // of landmark keypoints kept by ORB (border)
+    cv::Mat point_descriptors;
+    // With cross-camera links: oriented level-0 descriptors at the landmark
+    // pixels (the cameras' roll differs), whatever the loop closer's own
+    // landmark descriptors are (kept by ORB: indices into keyframe.points).
+    std::vector<int> link_point_index;
+    cv::Mat link_point_descriptors;
+  };
+  std::vector<CameraFeatures> cameras;
+  // The keyframe's points' cameras and pixels, in order: the indices above
+  // refer to them.
+  std::vector<int> point_camera;
+  std::vector<Eigen::Vector2d> point_pixel;
+
+  bool Fits(const LoopKeyframe& keyframe) const {
+    if (keyframe.points.size() != point_camera.size()) return false;
+    for (size_t k = 0; k < point_camera.size(); ++k) {
+      const LoopKeyframe::Point& p = keyframe.points[k];
+      if (p.camera != point_camera[k] || p.pixel != point_pixel[k]) return false;
+    }
+    return true;
+  }
+};
+
 void LoopClosureOptions::Check() const {
   CheckAtLeast("/loop/features_per_camera", features_per_camera, 1);
   CheckAtLeast("/loop/exclude_recent_keyframes", exclude_recent_keyframes, 0);
@@ -121,18 +152,7 @@ struct LoopCloser::Impl {
   LoopTiming timing;
   BowVector previous_bow;
 
-  // One camera's ORB detections and descriptors at the landmark pixels.
-  struct CameraFeatures {
-    std::vector<cv::KeyPoint> detections;
-    cv::Mat detection_descriptors;
-    std::vector<int> point_index;  // of landmark keypoints kept by ORB (border)
-    cv::Mat point_descriptors;
-    // With cross-camera links: oriented level-0 descriptors at the landmark
-    // pixels (the cameras' roll differs), whatever the loop closer's own
-    // landmark descriptors are (kept by ORB: indices into keyframe.points).
-    std::vector<int> link_point_index;
-    cv::Mat link_point_descriptors;
-  };
+  using CameraFeatures = LoopImageFeatures::CameraFeatures;
 
   CameraFeatures ExtractCamera(int camera, const LoopKeyframe& keyframe) const {
     CameraFeatures out;
@@ -195,11 +215,33 @@ struct LoopCloser::Impl {
     return out;
   }
 
-  Features Extract(const LoopKeyframe& keyframe, int camera_threads) const {
+  std::shared_ptr<const LoopImageFeatures> ExtractImageFeatures(const LoopKeyframe& keyframe,
+                                                               int camera_threads) const {
+    CheckImages(keyframe);
     const int n = rig.NumCameras();
-    std::vector<CameraFeatures> per_camera(static_cast<size_t>(n));
+    auto out = std::make_shared<LoopImageFeatures>();
+    out->cameras.resize(static_cast<size_t>(n));
     ParallelFor(n, camera_threads,
-                [&](int c) { per_camera[static_cast<size_t>(c)] = ExtractCamera(c, keyframe); });
+                [&](int c) { out->cameras[static_cast<size_t>(c)] = ExtractCamera(c, keyframe); });
+    for (const LoopKeyframe::Point& p : keyframe.points) {
+      out->point_camera.push_back(p.camera);
+      out->point_pixel.push_back(p.pixel);
+    }
+    return out;
+  }
+
+  Features Extract(const LoopKeyframe& keyframe, int camera_threads) const {
+    return Assemble(keyframe, *ExtractImageFeatures(keyframe, camera_threads));
+  }
+
+  // The keyframe's features from its image features (extracted for the same
+  // points' cameras and pixels) and its points' ids and world positions.
+  Features Assemble(const LoopKeyframe& keyframe, const LoopImageFeatures& image_features) const {
+    MCVO_CHECK_MSG(image_features.Fits(keyframe), "keyframe ", keyframe.frame_index,
+                   ": image features extracted for other points");
+    const int n = rig.NumCameras();
+    const std::vector<CameraFeatures>& per_camera = image_features.cameras;
+    MCVO_CHECK(static_cast<int>(per_camera.size()) == n);
     Features f;
     f.camera_has_features.assign(static_cast<size_t>(n), false);
     std::vector<cv::Mat> detection_rows, point_rows;
@@ -438,10 +480,12 @@ struct LoopCloser::Impl {
     BowVector bow;
   };
 
-  Prepared Prepare(const LoopKeyframe& keyframe, int camera_threads) const {
-    CheckImages(keyframe);
+  // image_features: extracted ahead (ExtractImageFeatures) for this
+  // keyframe's points, or null to extract them from its images.
+  Prepared Prepare(const LoopKeyframe& keyframe, int camera_threads,
+                   const LoopImageFeatures* image_features = nullptr) const {
     Prepared p;
-    p.features = Extract(keyframe, camera_threads);
+    p.features = image_features != nullptr ? Assemble(keyframe, *image_features) : Extract(keyframe, camera_threads);
     p.bow = vocabulary.Transform(DetectionDescriptors(p.features));
     return p;
   }
@@ -456,7 +500,8 @@ struct LoopCloser::Impl {
   // Batches of keyframes: their inputs and features in parallel (one
   // keyframe per thread), then each added in order. A batch holds its
   // keyframes' images only until their features are extracted.
-  std::vector<LoopAttempt> AddKeyframes(int count, const std::function<LoopKeyframe(int)>& keyframe_at) {
+  std::vector<LoopAttempt> AddKeyframes(int count, const std::function<LoopKeyframe(int)>& keyframe_at,
+                                        const LoopCloser::ImageFeaturesAt& image_features_at) {
     std::vector<LoopAttempt> all;
     const int batch = 8 * threads;
     for (int begin = 0; begin < count; begin += batch) {
@@ -469,9 +514,11 @@ struct LoopCloser::Impl {
         auto step = std::chrono::steady_clock::now();
         LoopKeyframe& keyframe = keyframes[static_cast<size_t>(i)];
         keyframe = keyframe_at(begin + i);
+        const std::shared_ptr<const LoopImageFeatures> ahead =
+            image_features_at ? image_features_at(begin + i) : nullptr;
         input_s[static_cast<size_t>(i)] = Seconds(step);
         step = std::chrono::steady_clock::now();
-        prepared[static_cast<size_t>(i)] = Prepare(keyframe, 1);
+        prepared[static_cast<size_t>(i)] = Prepare(keyframe, 1, ahead.get());
         prepare_s[static_cast<size_t>(i)] = Seconds(step);
         keyframe.images.clear();
       });
@@ -632,8 +679,18 @@ std::vector<LoopAttempt> LoopCloser::AddKeyframe(const LoopKeyframe& keyframe) {
 }
 
 std::vector<LoopAttempt> LoopCloser::AddKeyframes(int count,
-                                                  const std::function<LoopKeyframe(int)>& keyframe_at) {
-  return impl_->AddKeyframes(count, keyframe_at);
+                                                  const std::function<LoopKeyframe(int)>& keyframe_at,
+                                                  const ImageFeaturesAt& image_features_at) {
+  return impl_->AddKeyframes(count, keyframe_at, image_features_at);
+}
+
+std::shared_ptr<const LoopImageFeatures> LoopCloser::ExtractImageFeatures(const LoopKeyframe& keyframe,
+                                                                          int threads) const {
+  return impl_->ExtractImageFeatures(keyframe, std::max(1, threads));
+}
+
+bool LoopCloser::ImageFeaturesFit(const LoopImageFeatures& features, const LoopKeyframe& keyframe) {
+  return features.Fits(keyframe);
 }
 
 void LoopCloser::AddMapKeyframe(const LoopKeyframe& keyframe) { impl_->AddMapKeyframe(keyframe); }

@@ -176,6 +176,68 @@ TEST(LoopCloserTest, AddKeyframesMatchesAddKeyframeOneByOne) {
   }
 }
 
+// Image features extracted ahead (ExtractImageFeatures, while the images
+// are at hand; pipeline/loop_image_cache.h) stand for the images: the same
+// attempts as from the images, for keyframes given without any; they fit
+// only a keyframe with the same points' cameras and pixels in order, and
+// ids or world points may change in between.
+TEST(LoopCloserTest, ImageFeaturesExtractedAheadStandForTheImages) {
+  const Vocabulary vocabulary = Vocabulary::Load(MCVO_SOURCE_DIR "/config/vocabulary_orb.bin");
+  const Rig rig = TwoCameraRig();
+  LoopClosureOptions options;
+  options.exclude_recent_keyframes = 5;
+  options.min_inliers = 20;
+  options.cross_camera.window_keyframes = 4;  // the link descriptors too
+  constexpr int kKeyframes = 2 * kPlaces + 5;
+
+  LoopCloser reference(rig, {}, vocabulary, options, 2);
+  const std::vector<LoopAttempt> expected =
+      reference.AddKeyframes(kKeyframes, [&](int k) { return RouteKeyframe(rig, k); });
+  const std::vector<CrossCameraLink> expected_links = reference.CrossCameraLinks({{0, 1}});
+  int accepted = 0;
+  for (const LoopAttempt& a : expected) accepted += a.accepted ? 1 : 0;
+  EXPECT_GT(accepted, 0);
+
+  LoopCloser ahead(rig, {}, vocabulary, options, 2);
+  std::vector<std::shared_ptr<const LoopImageFeatures>> features;
+  for (int k = 0; k < kKeyframes; ++k) features.push_back(ahead.ExtractImageFeatures(RouteKeyframe(rig, k), 2));
+  // Every other keyframe from features (no images), the rest from images.
+  const std::vector<LoopAttempt> got = ahead.AddKeyframes(
+      kKeyframes,
+      [&](int k) {
+        LoopKeyframe keyframe = RouteKeyframe(rig, k);
+        if (k % 2 == 0) {
+          for (cv::Mat& image : keyframe.images) image.release();
+        }
+        return keyframe;
+      },
+      [&](int k) { return k % 2 == 0 ? features[static_cast<size_t>(k)] : nullptr; });
+  ExpectSameAttempts(expected, got);
+  const std::vector<CrossCameraLink> links = ahead.CrossCameraLinks({{0, 1}});
+  ASSERT_EQ(links.size(), expected_links.size());
+  for (size_t i = 0; i < links.size(); ++i) {
+    EXPECT_EQ(links[i].landmark_id, expected_links[i].landmark_id);
+    EXPECT_EQ(links[i].source_landmark_id, expected_links[i].source_landmark_id);
+  }
+
+  LoopKeyframe keyframe = RouteKeyframe(rig, 3);
+  ASSERT_GE(keyframe.points.size(), 2u);
+  EXPECT_TRUE(LoopCloser::ImageFeaturesFit(*features[3], keyframe));
+  keyframe.points[1].landmark_id += 1000;  // ids and world points may change
+  keyframe.points[1].point_in_world.x() += 1.0;
+  EXPECT_TRUE(LoopCloser::ImageFeaturesFit(*features[3], keyframe));
+  LoopKeyframe moved = keyframe;
+  moved.points[1].pixel.x() += 0.5;
+  EXPECT_FALSE(LoopCloser::ImageFeaturesFit(*features[3], moved));
+  LoopKeyframe other_camera = keyframe;
+  other_camera.points[1].camera = 1 - other_camera.points[1].camera;
+  EXPECT_FALSE(LoopCloser::ImageFeaturesFit(*features[3], other_camera));
+  LoopKeyframe fewer = keyframe;
+  fewer.points.pop_back();
+  EXPECT_FALSE(LoopCloser::ImageFeaturesFit(*features[3], fewer));
+  EXPECT_FALSE(LoopCloser::ImageFeaturesFit(*features[3], RouteKeyframe(rig, 4)));
+}
+
 // loop.feature_max_megapixels: images over the bound are described on a
 // coarser level, and the features keep full-resolution pixels (the
 // verification's bearings and inlier pixels); images within it are

@@ -157,8 +157,15 @@ struct LoopTiming {
   double cross_camera_s = 0.0;  // CrossCameraLinks
 };
 
+// The part of a keyframe's loop-closure features that its images give: ORB
+// detections and descriptors at its landmark pixels, per camera
+// (LoopCloser::ExtractImageFeatures). Opaque.
+struct LoopImageFeatures;
+
 class LoopCloser {
  public:
+  using ImageFeaturesAt = std::function<std::shared_ptr<const LoopImageFeatures>(int)>;
+
   // masks: per camera (CV_8UC1, 255 valid; empty: all valid). vocabulary:
   // binary, 32-byte rows (ORB). threads: feature extraction over cameras.
   LoopCloser(const Rig& rig, std::vector<cv::Mat> masks, Vocabulary vocabulary,
@@ -177,7 +184,21 @@ class LoopCloser {
   // per thread, and only the query and verification stay in keyframe order.
   // keyframe_at is called from several threads at once; an exception it
   // throws reaches the caller (ParallelFor's rule: the lowest index's).
-  std::vector<LoopAttempt> AddKeyframes(int count, const std::function<LoopKeyframe(int)>& keyframe_at);
+  // image_features_at (optional): keyframe k's image features extracted
+  // ahead (ExtractImageFeatures, for a keyframe with the same points'
+  // cameras and pixels in the same order), which then stand for its images
+  // (keyframe_at(k) may have none), or null to extract them from them.
+  // The results are the same either way.
+  std::vector<LoopAttempt> AddKeyframes(int count, const std::function<LoopKeyframe(int)>& keyframe_at,
+                                        const ImageFeaturesAt& image_features_at = nullptr);
+  // A keyframe's image features, ahead of AddKeyframes (while its images are
+  // at hand: pipeline/loop_image_cache.h), on `threads` threads over the
+  // cameras; they depend on its images and its points' cameras and pixels,
+  // not on their ids or world positions.
+  std::shared_ptr<const LoopImageFeatures> ExtractImageFeatures(const LoopKeyframe& keyframe, int threads) const;
+  // True when `features` were extracted for the same points' cameras and
+  // pixels, in the same order, as `keyframe` has.
+  static bool ImageFeaturesFit(const LoopImageFeatures& features, const LoopKeyframe& keyframe);
 
   // Relocalisation against a map (pipeline/relocalise_segments.h): adds a
   // keyframe to the database without querying it.
