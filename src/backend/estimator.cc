@@ -505,4 +505,13 @@ double Estimator::SmallestRejectedScaleSigma() const {
   return impl_->initializer.SmallestRejectedScaleSigma();
 }
 
+std::vector<int> Estimator::PendingFrames() const {
+  std::vector<int> frames;
+  for (const backend_internal::WindowFrame* frame : impl_->window.frames()) frames.push_back(frame->frame_index);
+  for (const RigFrameObservations& frame : impl_->init_buffer) frames.push_back(frame.frame_index);
+  std::sort(frames.begin(), frames.end());
+  frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
+  return frames;
+}
+
 }  // namespace mcvo

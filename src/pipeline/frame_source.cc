@@ -85,7 +85,10 @@ struct FrameSource::Impl {
   FrameQueue queue{4};
   std::thread producer;
 
-  Impl(const DatasetIndex& index_in, int threads_in) : index(index_in), threads(threads_in) {}
+  const bool keep_images;
+
+  Impl(const DatasetIndex& index_in, int threads_in, bool keep_images_in)
+      : index(index_in), threads(threads_in), keep_images(keep_images_in) {}
 
   void Produce(int total_frames) {
     std::exception_ptr error;
@@ -97,12 +100,17 @@ struct FrameSource::Impl {
           std::optional<MultiCameraFrame> frame = track_reader->Next();
           if (!frame) break;
           const double seconds = SecondsSince(start);
-          queue.Push({std::move(*frame), 0.0, seconds, seconds});
+          FrontendItem item;
+          item.frame = std::move(*frame);
+          item.track_seconds = seconds;
+          item.seconds = seconds;
+          queue.Push(std::move(item));
           ++produced;
         }
       } else {
         FrameStreamOptions stream_options;
         stream_options.threads = threads;
+        stream_options.keep_decoded = keep_images;
         FrameStream stream(index, stream_options);
         int produced = 0;
         while (produced < total_frames && !queue.cancelled()) {
@@ -112,8 +120,17 @@ struct FrameSource::Impl {
           if (!images) break;
           const Clock::time_point track_start = Clock::now();
           MultiCameraFrame frame = tracker->Track(images->index, images->t_ns, images->images);
-          queue.Push({std::move(frame), decode_wait, SecondsSince(track_start), SecondsSince(start),
-                      images->decode_seconds});
+          FrontendItem item;
+          item.frame = std::move(frame);
+          item.decode_wait_seconds = decode_wait;
+          item.track_seconds = SecondsSince(track_start);
+          item.seconds = SecondsSince(start);
+          item.decode_seconds = images->decode_seconds;
+          if (keep_images) {
+            item.images = std::move(images->images);
+            item.decoded = std::move(images->decoded);
+          }
+          queue.Push(std::move(item));
           ++produced;
         }
       }
@@ -125,8 +142,8 @@ struct FrameSource::Impl {
 };
 
 FrameSource::FrameSource(const DatasetIndex& index, const FrontendOptions& frontend,
-                         const std::filesystem::path& tracks, int threads)
-    : impl_(std::make_unique<Impl>(index, threads)) {
+                         const std::filesystem::path& tracks, int threads, bool keep_images)
+    : impl_(std::make_unique<Impl>(index, threads, keep_images)) {
   const Rig& rig = index.rig;
   if (!tracks.empty()) {
     impl_->track_reader = std::make_unique<TrackFileReader>(tracks);

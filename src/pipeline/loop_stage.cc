@@ -3,8 +3,11 @@
 #include <chrono>
 #include <utility>
 
+#include "mcvo/frontend/cross_camera.h"
+#include "mcvo/util/error.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/strings.h"
+#include "refine_stage.h"
 #include "relocalise_segments.h"
 
 namespace mcvo::pipeline_internal {
@@ -18,19 +21,48 @@ double SecondsSince(Clock::time_point start) {
 
 }  // namespace
 
+std::unique_ptr<LoopCloser> MakeLoopCloser(const DatasetIndex& index, const Vocabulary& vocabulary,
+                                           const LoopOptions& options, int threads) {
+  return std::make_unique<LoopCloser>(index.rig, index.masks, vocabulary, options.closure, threads);
+}
+
 LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
                        const Vocabulary& vocabulary, const LoopOptions& options, int threads,
                        bool sample_colors, const std::vector<std::pair<int, int>>& overlapping_pairs) {
+  const std::unique_ptr<LoopCloser> closer = MakeLoopCloser(index, vocabulary, options, threads);
+  return CloseLoops(index, keyframes, closer.get(), nullptr, options, sample_colors, overlapping_pairs);
+}
+
+LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
+                       LoopCloser* closer_ptr, const LoopImageCache* cache, const LoopOptions& options,
+                       bool sample_colors, const std::vector<std::pair<int, int>>& overlapping_pairs) {
+  MCVO_CHECK(closer_ptr != nullptr && closer_ptr->num_keyframes() == 0);
+  LoopCloser& closer = *closer_ptr;
   LoopOutcome out;
-  const Rig& rig = index.rig;
-  LoopCloser closer(rig, index.masks, vocabulary, options.closure, threads);
+  const int num_cameras = index.rig.NumCameras();
   // Each keyframe's images are read on the thread that extracts its
-  // features, its colours sampled into its own slot.
+  // features, its colours sampled into its own slot; or both come from the
+  // cache, extracted while the frontend's decode was at hand.
+  std::vector<const LoopImageCache::Entry*> cached(keyframes.size(), nullptr);
+  if (cache != nullptr) {
+    for (size_t k = 0; k < keyframes.size(); ++k) cached[k] = cache->Find(keyframes[k]);
+  }
   std::vector<std::vector<ColmapColorSamples>> colors(sample_colors ? keyframes.size() : 0);
-  out.attempts = closer.AddKeyframes(static_cast<int>(keyframes.size()), [&](int k) {
-    const size_t at = static_cast<size_t>(k);
-    return ToLoopKeyframe(index, keyframes[at], 1, sample_colors ? &colors[at] : nullptr);
-  });
+  out.attempts = closer.AddKeyframes(
+      static_cast<int>(keyframes.size()),
+      [&](int k) {
+        const size_t at = static_cast<size_t>(k);
+        if (cached[at] == nullptr) {
+          return ToLoopKeyframe(index, keyframes[at], 1, sample_colors ? &colors[at] : nullptr);
+        }
+        if (sample_colors) colors[at] = cached[at]->colors;
+        return LoopKeyframeWithoutImages(keyframes[at], num_cameras);
+      },
+      [&](int k) {
+        const LoopImageCache::Entry* entry = cached[static_cast<size_t>(k)];
+        return entry != nullptr ? entry->features : nullptr;
+      });
+  for (const LoopImageCache::Entry* entry : cached) out.keyframes_from_cache += entry != nullptr ? 1 : 0;
   for (size_t k = 0; k < colors.size(); ++k) {
     for (size_t c = 0; c < colors[k].size(); ++c) {
       out.colors[{keyframes[k].frame_index, static_cast<int>(c)}] = std::move(colors[k][c]);
@@ -42,7 +74,8 @@ LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEsti
   }
   out.cross_camera_links = closer.CrossCameraLinks(overlapping_pairs);
   if (!out.cross_camera_links.empty()) {
-    MCVO_LOG(kInfo, "run: cross-camera links across time: ", out.cross_camera_links.size(), " landmark pairs");
+    MCVO_LOG(kInfo, "run: cross-camera links across time: ", out.cross_camera_links.size(),
+             " landmark pairs");
   }
   out.timing = closer.timing();
   for (const KeyframeEstimate& kf : keyframes) out.keyframe_after.push_back(kf.world_from_rig);
@@ -75,6 +108,49 @@ LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEsti
     MCVO_LOG(kWarning, "run: loop closure: pose graph failed (", out.graph.reason,
              "); trajectory left as is");
   }
+  return out;
+}
+
+RunLoopStage::RunLoopStage(const DatasetIndex& index, const Vocabulary& vocabulary,
+                           const PipelineOptions& options, bool track_images, int threads)
+    : vocabulary_(vocabulary),
+      options_(options),
+      threads_(threads),
+      sample_colors_(options.colmap.enabled && options.colmap.export_options.sample_colors) {
+  if (!track_images) return;
+  // The options of a run at the rig's own scale; Close makes another closer
+  // after the monocular fallback.
+  closer_ = MakeLoopCloser(index, vocabulary_, OptionsFor(index.rig.NumCameras() == 1), threads_);
+  cache_ = std::make_unique<LoopImageCache>(*closer_, index.rig.NumCameras(), sample_colors_, threads_);
+}
+
+LoopOptions RunLoopStage::OptionsFor(bool scale_arbitrary) const {
+  LoopOptions loop_options = options_.loop;
+  if (!RefineFusesLandmarks(options_.refine, scale_arbitrary))
+    loop_options.closure.cross_camera.window_keyframes = 0;
+  return loop_options;
+}
+
+void RunLoopStage::AddFrame(int frame_index, std::vector<cv::Mat> images, std::vector<cv::Mat> decoded,
+                            const OdometryStage& stage) {
+  if (cache_) cache_->Add(frame_index, std::move(images), std::move(decoded), stage);
+}
+
+LoopOutcome RunLoopStage::Close(const DatasetIndex& posed, const OdometryOutput& odometry,
+                                bool scale_arbitrary) {
+  const auto matched_pairs = SelectCrossCameraPairs(posed.rig, posed.masks, options_.frontend.cross_camera);
+  const LoopOptions loop_options = OptionsFor(scale_arbitrary);
+  if (!cache_ || odometry.monocular_camera >= 0) {
+    return CloseLoops(posed, odometry.keyframes, vocabulary_, loop_options, threads_, sample_colors_,
+                      matched_pairs);
+  }
+  // No fallback to one camera: the rig and options the closer was made with.
+  cache_->Finish(odometry.keyframes);
+  LoopOutcome out = CloseLoops(posed, odometry.keyframes, closer_.get(), cache_.get(), loop_options,
+                               sample_colors_, matched_pairs);
+  out.cache_seconds = cache_->seconds();
+  cache_.reset();
+  closer_.reset();
   return out;
 }
 

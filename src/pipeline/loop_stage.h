@@ -6,6 +6,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "mcvo/loop/loop_closer.h"
 #include "mcvo/loop/pose_graph.h"
 #include "mcvo/loop/vocabulary.h"
+#include "loop_image_cache.h"
 #include "odometry_stage.h"
 
 namespace mcvo::pipeline_internal {
@@ -40,6 +42,10 @@ struct LoopOutcome {
   // keyframe's observation pixels, sampled while its images were read for
   // the loop closer (the export then decodes none of them again).
   ColmapColorTable colors;
+  // Keyframes whose image features and colours came from the loop image
+  // cache (not read from their files again).
+  int keyframes_from_cache = 0;
+  double cache_seconds = 0.0;  // extracting them during the odometry (wall)
 };
 
 // overlapping_pairs: the camera pairs the frontend matches (their views
@@ -47,6 +53,47 @@ struct LoopOutcome {
 LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
                        const Vocabulary& vocabulary, const LoopOptions& options, int threads,
                        bool sample_colors = false, const std::vector<std::pair<int, int>>& overlapping_pairs = {});
+
+// The loop closer CloseLoops makes of these (to extract keyframes' image
+// features ahead with, loop_image_cache.h).
+std::unique_ptr<LoopCloser> MakeLoopCloser(const DatasetIndex& index, const Vocabulary& vocabulary,
+                                           const LoopOptions& options, int threads);
+// CloseLoops with that closer (no keyframe added yet) and the keyframes'
+// image features and colours extracted ahead where `cache` has them (it
+// must have been filled with `closer`); the same outcome.
+LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
+                       LoopCloser* closer, const LoopImageCache* cache, const LoopOptions& options,
+                       bool sample_colors, const std::vector<std::pair<int, int>>& overlapping_pairs);
+
+// The loop stage of `mcvo run`, from before the odometry to its end: the
+// loop options (cross-camera links are looked for only where the
+// refinement fuses landmarks, refine_stage.h), the loop closer and, when
+// the odometry tracks images, the image cache it fills from the frontend's
+// decode (loop_image_cache.h).
+class RunLoopStage {
+ public:
+  // track_images: the frames come with their images (FrontendItem::images,
+  // decoded), not from a track file.
+  RunLoopStage(const DatasetIndex& index, const Vocabulary& vocabulary, const PipelineOptions& options,
+               bool track_images, int threads);
+  // After OdometryStage::Add of each frame (LoopImageCache::Add).
+  void AddFrame(int frame_index, std::vector<cv::Mat> images, std::vector<cv::Mat> decoded,
+                const OdometryStage& stage);
+  // CloseLoops over the odometry's keyframes. posed: the dataset they are of
+  // (one camera's after the monocular fallback, whose keyframes the cache,
+  // of the whole rig, does not serve).
+  LoopOutcome Close(const DatasetIndex& posed, const OdometryOutput& odometry, bool scale_arbitrary);
+
+ private:
+  LoopOptions OptionsFor(bool scale_arbitrary) const;
+
+  const Vocabulary& vocabulary_;
+  const PipelineOptions& options_;
+  const int threads_;
+  const bool sample_colors_;  // the COLMAP export's colours, sampled as the keyframes are read
+  std::unique_ptr<LoopCloser> closer_;
+  std::unique_ptr<LoopImageCache> cache_;
+};
 
 // loops.csv: one line per verified or rejected candidate.
 std::string LoopsCsv(const std::vector<LoopAttempt>& attempts);

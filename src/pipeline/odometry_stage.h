@@ -68,6 +68,12 @@ class OdometryStage {
   void Add(const RigFrameObservations& frame, double frontend_seconds);
   // Ends the forward pass, runs the fallback and the reverse pass.
   OdometryOutput Finish();
+  // Between Add calls (the forward pass): the keyframes finished so far, in
+  // the order they finished, and the frames that may still become finished
+  // keyframes of the forward pass (Estimator::PendingFrames). For the loop
+  // image cache (loop_image_cache.h).
+  const std::vector<KeyframeEstimate>& FinishedKeyframes() const { return out_.keyframes; }
+  std::vector<int> PendingFrames() const { return estimator_->PendingFrames(); }
 
  private:
   void Consume(Estimator* estimator, ReversePass* reverse, const RigFrameObservations& frame,

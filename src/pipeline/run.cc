@@ -218,10 +218,17 @@ RunSummary RunPipeline(const RunRequest& request) {
   }
   // Frame source and vocabulary, set up before anything is decoded so that a
   // bad model, a mismatched track file or a bad vocabulary fail at start-up.
-  FrameSource source(index, options.frontend, request.tracks, threads);
+  // Loop closure describes the keyframes from the frontend's decode when it
+  // tracks images (loop_image_cache.h).
+  const bool keep_images = options.loop.enabled && request.tracks.empty();
+  FrameSource source(index, options.frontend, request.tracks, threads, keep_images);
   const std::filesystem::path vocabulary_path = RunVocabularyPath(options);
   std::optional<Vocabulary> vocabulary;
-  if (options.loop.enabled) vocabulary = Vocabulary::Load(vocabulary_path);
+  std::optional<pipeline_internal::RunLoopStage> loop_stage;
+  if (options.loop.enabled) {
+    vocabulary = Vocabulary::Load(vocabulary_path);
+    loop_stage.emplace(index, *vocabulary, options, keep_images, threads);
+  }
 
   // Staging folder, renamed onto out_dir when everything is written.
   const std::filesystem::path absolute_out = std::filesystem::absolute(request.out_dir).lexically_normal();
@@ -254,6 +261,10 @@ RunSummary RunPipeline(const RunRequest& request) {
   while (std::optional<FrontendItem> item = source.Next()) {
     frontend_stages.Add(*item);
     odometry_stage.Add(ToObservations(rig, item->frame), item->seconds);
+    if (loop_stage) {
+      loop_stage->AddFrame(item->frame.frame_index, std::move(item->images), std::move(item->decoded),
+                           odometry_stage);
+    }
     ++summary.frames;
     progress.Update(summary.frames);
   }
@@ -281,19 +292,12 @@ RunSummary RunPipeline(const RunRequest& request) {
   // Loop closure, then every pose and landmark moved with its keyframe's correction.
   pipeline_internal::LoopOutcome loops;
   pipeline_internal::OdometryBeforeLoops before_loops;
-  if (vocabulary) {
-    // The COLMAP export's colours are sampled as the loop closer reads the images.
-    const bool sample_colors = options.colmap.enabled && options.colmap.export_options.sample_colors;
-    const auto matched_pairs = SelectCrossCameraPairs(posed.rig, posed.masks, options.frontend.cross_camera);
-    // Cross-camera links are used only by the refinement's landmark fusion:
-    // where it does not run, they are not looked for (nor described).
-    LoopOptions loop_options = options.loop;
-    if (!pipeline_internal::RefineFusesLandmarks(options.refine, summary.scale_arbitrary)) loop_options.closure.cross_camera.window_keyframes = 0;
-    loops = pipeline_internal::CloseLoops(posed, odometry.keyframes, *vocabulary, loop_options, threads,
-                                          sample_colors, matched_pairs);
-    MCVO_LOG(kInfo, "run: loop closure: ", odometry.keyframes.size(), " keyframes, ", loops.verified,
-             " candidates verified, ", loops.accepted, " loop(s) accepted",
-             loops.applied ? ", pose graph applied" : "");
+  if (loop_stage) {
+    loops = loop_stage->Close(posed, odometry, summary.scale_arbitrary);
+    loop_stage.reset();
+    MCVO_LOG(kInfo, "run: loop closure: ", odometry.keyframes.size(), " keyframes (", loops.keyframes_from_cache,
+             " described from the frontend's decode), ", loops.verified, " candidates verified, ", loops.accepted,
+             " loop(s) accepted", loops.applied ? ", pose graph applied" : "");
     before_loops = pipeline_internal::ApplyLoopCorrection(loops, &odometry);
   }
   summary.loops_accepted = loops.accepted;

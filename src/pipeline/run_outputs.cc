@@ -428,6 +428,11 @@ Json TimingJson(const RunOutputsInput& in, const RunSummary& summary, double col
     const double keyframe_count = std::max<size_t>(1, odometry.keyframes.size());
     timing["loop_image_read_s_per_keyframe"] = loops.timing.input_s / keyframe_count;
     timing["loop_features_s_per_keyframe"] = loops.timing.features_s / keyframe_count;
+    // Keyframes described during the odometry from the frontend's decode
+    // (pipeline/loop_image_cache.h): how many, and that work per keyframe
+    // of the run (part of odometry_s_total).
+    timing["loop_keyframes_from_frontend_decode"] = loops.keyframes_from_cache;
+    timing["loop_features_in_odometry_s_per_keyframe"] = loops.cache_seconds / keyframe_count;
     timing["loop_query_s_per_keyframe"] = loops.timing.query_s / keyframe_count;
     timing["loop_verification_s_per_keyframe"] = loops.timing.verification_s / keyframe_count;
     timing["pose_graph_s_total"] = loops.pose_graph_seconds;

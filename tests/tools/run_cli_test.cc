@@ -187,6 +187,15 @@ TEST(RunCli, CompletesAccuratelyAndIsDeterministic) {
   EXPECT_EQ(mcvo::ReadFileToString(replay / "trajectory.tum"),
             mcvo::ReadFileToString(out1 / "trajectory.tum"));
   EXPECT_EQ(mcvo::ReadFileToString(replay / "scale_log.csv"), mcvo::ReadFileToString(out1 / "scale_log.csv"));
+  // Loop closure described the live run's keyframes from the frontend's
+  // decode (pipeline/loop_image_cache.h), the replay's from their files:
+  // the same loops, links and COLMAP model (points and their colours).
+  EXPECT_GT(run1["timing"]["loop_keyframes_from_frontend_decode"].get<int>(), 0);
+  EXPECT_EQ(ReadJson(replay / "run.json")["timing"]["loop_keyframes_from_frontend_decode"].get<int>(), 0);
+  for (const char* file : {"loops.csv", "cross_camera_links.csv", "colmap/sparse_txt/0/points3D.txt",
+                           "colmap/sparse_txt/0/images.txt"}) {
+    EXPECT_EQ(mcvo::ReadFileToString(replay / file), mcvo::ReadFileToString(out1 / file)) << file;
+  }
 
   // The frontend's stage profile in run.json's timing (as `mcvo track
   // --timing`) when images were tracked; a replay has no frontend stages.

@@ -183,6 +183,11 @@ class Estimator {
   std::vector<KeyframeEstimate> Finish();
   // Initializer::SmallestRejectedScaleSigma of its initializer.
   double SmallestRejectedScaleSigma() const;
+  // The frames that may still become (or are) keyframes not yet finished:
+  // those in the window and, while initialising, in the initializer's
+  // window; increasing frame_index. A frame not among them never leaves
+  // through TakeFinishedKeyframes or Finish.
+  std::vector<int> PendingFrames() const;
 
  private:
   struct Impl;

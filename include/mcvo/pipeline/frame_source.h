@@ -35,6 +35,10 @@ struct FrontendItem {
   double track_seconds = 0.0;
   double seconds = 0.0;
   double decode_seconds = 0.0;
+  // With keep_images (images tracked, not a track file): the frame's grey
+  // images and their decodes (FrameImages), for the loop closer; empty
+  // otherwise.
+  std::vector<cv::Mat> images, decoded;
 };
 
 // The frontend's seconds per stage, summed over the frames added (wall
@@ -60,8 +64,10 @@ class FrameSource {
   // tracks: a track file to replay (its cameras must be the dataset's, in
   // order), or empty to track the dataset's images with `frontend` on
   // `threads` threads. Throws InputError.
+  // keep_images: hand each tracked frame's images on (FrontendItem::images
+  // and decoded), so that the loop closer need not decode keyframes again.
   FrameSource(const DatasetIndex& index, const FrontendOptions& frontend, const std::filesystem::path& tracks,
-              int threads);
+              int threads, bool keep_images = false);
   // Cancels the producer and joins it.
   ~FrameSource();
   FrameSource(const FrameSource&) = delete;
