@@ -14,6 +14,9 @@
 # Detectors: shi_tomasi (the configs' default), orb, and xfeat
 # (../shared/models/xfeat_480x640.onnx; 4 cameras only: it is the slowest).
 #
+# Colour rows ("full colour"): the full-resolution render copied as 3-channel
+# PNGs by mcvo_bench_colourise (next to MCVO, or env COLOURISE), 4 and 2
+# cameras, Shi-Tomasi: real rigs record colour, which costs more to decode.
 # Per row, in one pass on the same machine, THREADS threads (default 2):
 #   decode   `mcvo info --decode`: the rig's images decoded as `mcvo run`
 #            decodes them (FrameStream), nothing else;
@@ -33,6 +36,7 @@ MCVO=${2:-build/mcvo}
 SCRATCH=${3:-${TMPDIR:-/tmp}/mcvo_bench_throughput}
 THREADS=${THREADS:-2}
 XFEAT=../shared/models/xfeat_480x640.onnx
+COLOURISE=${COLOURISE:-$(dirname "$MCVO")/mcvo_bench_colourise}
 OUT_MD=results/throughput.md
 OUT_CSV=results/throughput.csv
 mkdir -p "$SCRATCH"
@@ -68,25 +72,35 @@ cameras_of() {  # config -> comma-separated camera list
 
 echo "resolution,cameras,detector,threads,frames,decode_s,track_s,run_s,decode_fps,track_fps,run_fps,track_over_decode,run_over_decode,scale,ate_percent,scale_error_percent,decode_cpu_s,track_cpu_s,run_cpu_s" > "$OUT_CSV"
 
-row() {  # seq scale config detector threads
-  local seq=$1 scale=$2 config=$3 detector=$4 threads=$5
+colourise() {  # grey sequence folder -> prints its colour copy's folder (tools/bench/colourise_bench.cc)
+  local seq=$1 out="$1-colour"
+  if [[ ! -f "$out/frames.csv" ]]; then
+    rm -rf "$out"
+    "$COLOURISE" "$seq" "$out" >&2
+  fi
+  echo "$out"
+}
+
+row() {  # seq scale config detector threads [resolution label]
+  local seq=$1 scale=$2 config=$3 detector=$4 threads=$5 label=${6:-}
   local cams n decode track run extra=()
   cams=$(cameras_of "config/$config.json")
   n=$(tr ',' '\n' <<< "$cams" | wc -l)
   [[ $detector == xfeat ]] && extra=(--model "$XFEAT")
   decode=$(seconds_of "$MCVO" info --dataset "$seq" --cameras "$cams" --decode --threads "$threads")
   track=$(seconds_of "$MCVO" track --dataset "$seq" --config "config/$config.json" --detector "$detector" \
-    "${extra[@]}" --threads "$threads" --out "$SCRATCH/tracks.bin" --timing "$SCRATCH/track_${scale}_${config}_${detector}_t${threads}.json")
+    "${extra[@]}" --threads "$threads" --out "$SCRATCH/tracks.bin" --timing "$SCRATCH/track_${scale}${label:+_$label}_${config}_${detector}_t${threads}.json")
   run=$(seconds_of "$MCVO" run --dataset "$seq" --config "config/$config.json" --detector "$detector" \
-    "${extra[@]}" --threads "$threads" --force --out "$SCRATCH/run_${scale}_${config}_${detector}_t${threads}")
-  python3 - "$SCRATCH/run_${scale}_${config}_${detector}_t${threads}/run.json" "$scale" "$n" "$detector" \
-    "$threads" "$FRAMES" "$decode" "$track" "$run" >> "$OUT_CSV" <<'PY'
+    "${extra[@]}" --threads "$threads" --force --out "$SCRATCH/run_${scale}${label:+_$label}_${config}_${detector}_t${threads}")
+  python3 - "$SCRATCH/run_${scale}${label:+_$label}_${config}_${detector}_t${threads}/run.json" "$scale" "$n" "$detector" \
+    "$threads" "$FRAMES" "$decode" "$track" "$run" "$label" >> "$OUT_CSV" <<'PY'
 import json, sys
-run_json, scale, n, detector, threads, frames, decode, track, run = sys.argv[1:]
+run_json, scale, n, detector, threads, frames, decode, track, run, label = sys.argv[1:]
 r = json.load(open(run_json))["result"]
 (decode, decode_cpu), (track, track_cpu), (run, run_cpu) = (map(float, s.split()) for s in (decode, track, run))
 frames = int(frames)
 res = "full" if float(scale) == 1.0 else "half" if float(scale) == 0.5 else scale
+res = f"{res} {label}" if label else res
 print(",".join(str(x) for x in [res, n, detector, threads, frames, f"{decode:.3f}", f"{track:.3f}", f"{run:.3f}",
       f"{frames/decode:.2f}", f"{frames/track:.2f}", f"{frames/run:.2f}", f"{track/decode:.2f}", f"{run/decode:.2f}",
       r.get("scale", "metric"), f"{r.get('ate_percent_of_path', float('nan')):.3f}",
@@ -108,6 +122,13 @@ for scale in 1 0.5; do
 done
 # The profile: full resolution, 4 cameras, Shi-Tomasi, at 1 thread too.
 row "$(render 1)" 1 kitti360_4cam shi_tomasi 1
+# Colour input, as real rigs record it (KITTI-360's PNGs are RGB): the same
+# frames as 3-channel PNGs (2.6 x the bytes), full resolution, Shi-Tomasi.
+if [[ -x $COLOURISE ]]; then
+  for config in kitti360_4cam kitti360_2cam; do
+    row "$(colourise "$(render 1)")" 1 "$config" shi_tomasi "$THREADS" colour
+  done
+fi
 
 python3 - "$OUT_CSV" "$SCRATCH" "$FRAMES" "$THREADS" > "$OUT_MD" <<'PY'
 import csv, json, os, subprocess, sys
@@ -134,6 +155,10 @@ for r in rows:
 print("\nscale: metric, or arbitrary where the run fell back to one camera (initializer.monocular_fallback): "
       "the 3-camera rig has no overlap and these 60 frames never turn, so its metric scale is never observable; "
       "its ATE is then after a Sim3 alignment and it has no scale error.\n")
+if any(r["resolution"].endswith("colour") for r in rows):
+    print("full colour: the same full-resolution frames as 3-channel PNGs (tools/bench/colourise_bench.cc: three "
+          "affine maps of the grey render, 2.6 x the bytes), as real rigs such as KITTI-360's record them; what "
+          "decoding colour costs. Their ATE is not a separate measurement of accuracy.\n")
 print("Issue 17's targets: 4 cameras at full resolution with Shi-Tomasi >= 20 frames/s end to end and "
       "run <= 2.5 x decode; XFeat >= 8 frames/s; half resolution >= 40 frames/s.\n")
 print("## Profile: full resolution, 4 cameras, Shi-Tomasi\n")
