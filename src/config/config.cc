@@ -227,6 +227,7 @@ void Visit(V& v, LoopOptions* o) {
   v.Field("relocalise", &o->relocalise);
   v.Field("relocalise_map_keyframes", &o->relocalise_map_keyframes);
   v.Field("relocalise_query_keyframes", &o->relocalise_query_keyframes);
+  v.Field("frontend_cache_mb", &o->frontend_cache_mb);
   LoopClosureOptions& c = o->closure;
   v.Field("features_per_camera", &c.features_per_camera);
   v.Field("feature_max_megapixels", &c.feature_max_megapixels);

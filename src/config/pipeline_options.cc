@@ -24,6 +24,7 @@ void DatasetSelectionOptions::Check() const {
 void LoopOptions::Check() const {
   CheckAtLeast("/loop/relocalise_map_keyframes", relocalise_map_keyframes, 1);
   CheckAtLeast("/loop/relocalise_query_keyframes", relocalise_query_keyframes, 1);
+  CheckAtLeast("/loop/frontend_cache_mb", frontend_cache_mb, 0);
   closure.Check();
   pose_graph.Check();
 }

@@ -17,6 +17,7 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/strings.h"
+#include "loop_image_features.h"
 #include "orb_describe.h"
 
 namespace mcvo {
@@ -33,37 +34,6 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 }
 
 }  // namespace
-
-// What of a keyframe's features its images give (LoopCloser::
-// ExtractImageFeatures), and the points they were extracted at.
-struct LoopImageFeatures {
-  // One camera's ORB detections and descriptors at the landmark pixels.
-  struct CameraFeatures {
-    std::vector<cv::KeyPoint> detections;
-    cv::Mat detection_descriptors;
-    std::vector<int> point_index;  // of landmark keypoints kept by ORB (border)
-    cv::Mat point_descriptors;
-    // With cross-camera links: oriented level-0 descriptors at the landmark
-    // pixels (the cameras' roll differs), whatever the loop closer's own
-    // landmark descriptors are (kept by ORB: indices into keyframe.points).
-    std::vector<int> link_point_index;
-    cv::Mat link_point_descriptors;
-  };
-  std::vector<CameraFeatures> cameras;
-  // The keyframe's points' cameras and pixels, in order: the indices above
-  // refer to them.
-  std::vector<int> point_camera;
-  std::vector<Eigen::Vector2d> point_pixel;
-
-  bool Fits(const LoopKeyframe& keyframe) const {
-    if (keyframe.points.size() != point_camera.size()) return false;
-    for (size_t k = 0; k < point_camera.size(); ++k) {
-      const LoopKeyframe::Point& p = keyframe.points[k];
-      if (p.camera != point_camera[k] || p.pixel != point_pixel[k]) return false;
-    }
-    return true;
-  }
-};
 
 struct LoopCloser::Impl {
   // A keyframe's features, once extracted.
@@ -149,8 +119,9 @@ struct LoopCloser::Impl {
     const float factor = static_cast<float>(1 << image_level);
     cv::Ptr<cv::ORB> orb = cv::ORB::create(options.features_per_camera);
     const cv::Mat& mask = feature_masks[static_cast<size_t>(camera)];
-    orb->detectAndCompute(image, mask.empty() || mask.size() != image.size() ? cv::noArray() : mask,
-                          out.detections, out.detection_descriptors);
+    std::vector<cv::KeyPoint> detections;
+    orb->detectAndCompute(image, mask.empty() || mask.size() != image.size() ? cv::noArray() : mask, detections,
+                          out.detection_descriptors);
     if (options.cross_camera.window_keyframes > 0) {
       std::vector<cv::Point2f> points;
       std::vector<int> point_of;
@@ -163,7 +134,8 @@ struct LoopCloser::Impl {
       loop_internal::DescribeOriented(orb, image, points, &out.link_point_index, &out.link_point_descriptors);
       for (int& k : out.link_point_index) k = point_of[static_cast<size_t>(k)];
     }
-    for (cv::KeyPoint& kp : out.detections) kp.pt *= factor;
+    out.detections.reserve(detections.size());
+    for (const cv::KeyPoint& kp : detections) out.detections.push_back(kp.pt * factor);
     std::vector<cv::KeyPoint> points;
     for (size_t k = 0; k < keyframe.points.size(); ++k) {
       const LoopKeyframe::Point& p = keyframe.points[k];
@@ -231,7 +203,7 @@ struct LoopCloser::Impl {
     };
     for (int c = 0; c < n; ++c) {
       const CameraFeatures& cf = per_camera[static_cast<size_t>(c)];
-      for (const cv::KeyPoint& kp : cf.detections) add_2d(c, kp.pt);
+      for (const cv::Point2f& pt : cf.detections) add_2d(c, pt);
       if (!cf.detection_descriptors.empty()) detection_rows.push_back(cf.detection_descriptors);
       f.camera_has_features[static_cast<size_t>(c)] = !cf.detections.empty();
     }
@@ -669,6 +641,8 @@ std::shared_ptr<const LoopImageFeatures> LoopCloser::ExtractImageFeatures(const 
 bool LoopCloser::ImageFeaturesFit(const LoopImageFeatures& features, const LoopKeyframe& keyframe) {
   return features.Fits(keyframe);
 }
+
+size_t LoopCloser::ImageFeaturesBytes(const LoopImageFeatures& features) { return features.Bytes(); }
 
 void LoopCloser::AddMapKeyframe(const LoopKeyframe& keyframe) { impl_->AddMapKeyframe(keyframe); }
 

@@ -10,10 +10,25 @@
 
 namespace mcvo::pipeline_internal {
 
-LoopImageCache::LoopImageCache(const LoopCloser& closer, int num_cameras, bool sample_colors, int threads)
+namespace {
+
+size_t ColorBytes(const std::vector<ColmapColorSamples>& colors) {
+  size_t bytes = 0;
+  for (const ColmapColorSamples& c : colors) {
+    bytes += c.pixels.size() * sizeof(Eigen::Vector2d) + c.colors.size() * sizeof(Eigen::Vector3d) +
+             c.has_color.size() / 8;
+  }
+  return bytes;
+}
+
+}  // namespace
+
+LoopImageCache::LoopImageCache(const LoopCloser& closer, int num_cameras, bool sample_colors,
+                               size_t max_bytes, int threads)
     : closer_(closer),
       num_cameras_(num_cameras),
       sample_colors_(sample_colors),
+      max_bytes_(max_bytes),
       threads_(std::max(1, threads)) {}
 
 void LoopImageCache::Add(int frame_index, std::vector<cv::Mat> images, std::vector<cv::Mat> decoded,
@@ -40,6 +55,10 @@ void LoopImageCache::Finish(const std::vector<KeyframeEstimate>& keyframes) {
 void LoopImageCache::Extract(const KeyframeEstimate& keyframe) {
   auto it = images_.find(keyframe.frame_index);
   if (it == images_.end()) return;
+  if (full_) {
+    ++over_budget_;
+    return;
+  }
   const auto start = std::chrono::steady_clock::now();
   const Images& images = it->second;
   LoopKeyframe lk = LoopKeyframeWithoutImages(keyframe, num_cameras_);
@@ -54,7 +73,14 @@ void LoopImageCache::Extract(const KeyframeEstimate& keyframe) {
           decoded.empty() ? ColmapColorSamples() : SampleKeyframeColors(decoded, keyframe, c);
     });
   }
-  entries_[keyframe.frame_index] = std::move(entry);
+  const size_t bytes = LoopCloser::ImageFeaturesBytes(*entry.features) + ColorBytes(entry.colors);
+  if (bytes_ + bytes > max_bytes_) {
+    ++over_budget_;
+    full_ = true;  // later keyframes are not extracted either
+  } else {
+    bytes_ += bytes;
+    entries_[keyframe.frame_index] = std::move(entry);
+  }
   seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 

@@ -38,9 +38,12 @@ class LoopImageCache {
   };
 
   // closer: the loop closer that will add the keyframes (its rig, masks and
-  // options define the features); it must outlive the cache. threads: over
-  // the cameras of one keyframe.
-  LoopImageCache(const LoopCloser& closer, int num_cameras, bool sample_colors, int threads);
+  // options define the features); it must outlive the cache. max_bytes: of
+  // the entries (features and colours); a keyframe whose entry would pass
+  // it gets none (which keyframes do depends on the data only). threads:
+  // over the cameras of one keyframe.
+  LoopImageCache(const LoopCloser& closer, int num_cameras, bool sample_colors, size_t max_bytes,
+                 int threads);
 
   // After OdometryStage::Add of frame `frame_index` (FrontendItem::images
   // and decoded): keeps its images, extracts the keyframes the stage
@@ -58,7 +61,9 @@ class LoopImageCache {
   const Entry* Find(const KeyframeEstimate& keyframe) const;
 
   int extracted() const { return static_cast<int>(entries_.size()); }
-  double seconds() const { return seconds_; }  // extracting and sampling (wall)
+  int over_budget() const { return over_budget_; }  // keyframes left to the loop stage by max_bytes
+  size_t bytes() const { return bytes_; }           // of the entries
+  double seconds() const { return seconds_; }       // extracting and sampling (wall)
 
  private:
   struct Images {
@@ -69,10 +74,14 @@ class LoopImageCache {
   const LoopCloser& closer_;
   const int num_cameras_;
   const bool sample_colors_;
+  const size_t max_bytes_;
   const int threads_;
   std::map<int, Images> images_;  // by frame index
   size_t keyframes_seen_ = 0;
   std::map<int, Entry> entries_;  // by frame index
+  size_t bytes_ = 0;
+  bool full_ = false;
+  int over_budget_ = 0;
   double seconds_ = 0.0;
 };
 

@@ -121,7 +121,8 @@ RunLoopStage::RunLoopStage(const DatasetIndex& index, const Vocabulary& vocabula
   // The options of a run at the rig's own scale; Close makes another closer
   // after the monocular fallback.
   closer_ = MakeLoopCloser(index, vocabulary_, OptionsFor(index.rig.NumCameras() == 1), threads_);
-  cache_ = std::make_unique<LoopImageCache>(*closer_, index.rig.NumCameras(), sample_colors_, threads_);
+  cache_ = std::make_unique<LoopImageCache>(*closer_, index.rig.NumCameras(), sample_colors_,
+                                            static_cast<size_t>(options.loop.frontend_cache_mb) << 20, threads_);
 }
 
 LoopOptions RunLoopStage::OptionsFor(bool scale_arbitrary) const {
@@ -140,17 +141,25 @@ LoopOutcome RunLoopStage::Close(const DatasetIndex& posed, const OdometryOutput&
                                 bool scale_arbitrary) {
   const auto matched_pairs = SelectCrossCameraPairs(posed.rig, posed.masks, options_.frontend.cross_camera);
   const LoopOptions loop_options = OptionsFor(scale_arbitrary);
+  LoopOutcome out;
   if (!cache_ || odometry.monocular_camera >= 0) {
-    return CloseLoops(posed, odometry.keyframes, vocabulary_, loop_options, threads_, sample_colors_,
-                      matched_pairs);
+    out = CloseLoops(posed, odometry.keyframes, vocabulary_, loop_options, threads_, sample_colors_, matched_pairs);
+  } else {
+    // No fallback to one camera: the rig and options the closer was made with.
+    cache_->Finish(odometry.keyframes);
+    out = CloseLoops(posed, odometry.keyframes, closer_.get(), cache_.get(), loop_options, sample_colors_,
+                     matched_pairs);
+    out.cache_seconds = cache_->seconds();
+    out.cache_bytes = cache_->bytes();
+    out.cache_over_budget = cache_->over_budget();
   }
-  // No fallback to one camera: the rig and options the closer was made with.
-  cache_->Finish(odometry.keyframes);
-  LoopOutcome out = CloseLoops(posed, odometry.keyframes, closer_.get(), cache_.get(), loop_options,
-                               sample_colors_, matched_pairs);
-  out.cache_seconds = cache_->seconds();
   cache_.reset();
   closer_.reset();
+  MCVO_LOG(kInfo, "run: loop closure: ", odometry.keyframes.size(), " keyframes (", out.keyframes_from_cache,
+           " described from the frontend's decode, ", FormatFixed(out.cache_bytes / 1048576.0, 1), " MB",
+           out.cache_over_budget > 0 ? StrCat("; ", out.cache_over_budget, " over loop.frontend_cache_mb") : "",
+           "), ", out.verified, " candidates verified, ", out.accepted, " loop(s) accepted",
+           out.applied ? ", pose graph applied" : "");
   return out;
 }
 

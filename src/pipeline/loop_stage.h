@@ -46,6 +46,8 @@ struct LoopOutcome {
   // cache (not read from their files again).
   int keyframes_from_cache = 0;
   double cache_seconds = 0.0;  // extracting them during the odometry (wall)
+  size_t cache_bytes = 0;      // what they held
+  int cache_over_budget = 0;   // keyframes left to be read again by loop.frontend_cache_mb
 };
 
 // overlapping_pairs: the camera pairs the frontend matches (their views

@@ -295,9 +295,6 @@ RunSummary RunPipeline(const RunRequest& request) {
   if (loop_stage) {
     loops = loop_stage->Close(posed, odometry, summary.scale_arbitrary);
     loop_stage.reset();
-    MCVO_LOG(kInfo, "run: loop closure: ", odometry.keyframes.size(), " keyframes (", loops.keyframes_from_cache,
-             " described from the frontend's decode), ", loops.verified, " candidates verified, ", loops.accepted,
-             " loop(s) accepted", loops.applied ? ", pose graph applied" : "");
     before_loops = pipeline_internal::ApplyLoopCorrection(loops, &odometry);
   }
   summary.loops_accepted = loops.accepted;

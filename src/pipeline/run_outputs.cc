@@ -433,6 +433,7 @@ Json TimingJson(const RunOutputsInput& in, const RunSummary& summary, double col
     // of the run (part of odometry_s_total).
     timing["loop_keyframes_from_frontend_decode"] = loops.keyframes_from_cache;
     timing["loop_features_in_odometry_s_per_keyframe"] = loops.cache_seconds / keyframe_count;
+    timing["loop_frontend_decode_mb"] = loops.cache_bytes / 1048576.0;
     timing["loop_query_s_per_keyframe"] = loops.timing.query_s / keyframe_count;
     timing["loop_verification_s_per_keyframe"] = loops.timing.verification_s / keyframe_count;
     timing["pose_graph_s_total"] = loops.pose_graph_seconds;

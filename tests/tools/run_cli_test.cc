@@ -210,6 +210,30 @@ TEST(RunCli, CompletesAccuratelyAndIsDeterministic) {
   EXPECT_FALSE(ReadJson(replay / "run.json")["timing"].contains("frontend_stages_s"));
 }
 
+// loop.frontend_cache_mb bounds what the loop stage keeps from the
+// frontend's decode (pipeline/loop_image_cache.h); with 0 every keyframe is
+// read from its files again, and the outputs are the same.
+TEST(RunCli, TheLoopCacheBudgetChangesOnlyWhereKeyframesAreReadFrom) {
+  nlohmann::json config = nlohmann::json::parse(mcvo::ReadFileToString(MCVO_SOURCE_DIR "/config/kitti360_4cam.json"));
+  const fs::path none = Root() / "budget_none", full = Root() / "budget_full";
+  const fs::path config_none = Root() / "budget_none.json", config_full = Root() / "budget_full.json";
+  config["loop"]["frontend_cache_mb"] = 0;
+  mcvo::WriteFileAtomic(config_none, config.dump());
+  config["loop"]["frontend_cache_mb"] = 1024;
+  mcvo::WriteFileAtomic(config_full, config.dump());
+  for (const auto& [out, cfg] : {std::pair{none, config_none}, std::pair{full, config_full}}) {
+    const auto r = RunMcvo("run --dataset " + Quote(Dataset().string()) + " --frames 40 --config " +
+                           Quote(cfg.string()) + " --force --out " + Quote(out.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  EXPECT_EQ(ReadJson(none / "run.json")["timing"]["loop_keyframes_from_frontend_decode"].get<int>(), 0);
+  EXPECT_GT(ReadJson(full / "run.json")["timing"]["loop_keyframes_from_frontend_decode"].get<int>(), 0);
+  for (const char* file : {"trajectory.tum", "scale_log.csv", "loops.csv", "cross_camera_links.csv",
+                           "colmap/sparse_txt/0/points3D.txt", "colmap/sparse_txt/0/images.txt"}) {
+    EXPECT_EQ(mcvo::ReadFileToString(none / file), mcvo::ReadFileToString(full / file)) << file;
+  }
+}
+
 TEST(RunCli, BadInputFailsCleanlyWithoutOutput) {
   const fs::path& dataset = Dataset();
   const fs::path out = Root() / "bad";

@@ -56,6 +56,12 @@ struct LoopOptions {
   bool relocalise = true;
   int relocalise_map_keyframes = 10;
   int relocalise_query_keyframes = 5;
+  // Memory for the keyframes `mcvo run` describes from the frontend's
+  // decode during the odometry (pipeline/loop_image_cache.h: ORB features
+  // and colours, about 0.1-0.2 MB per keyframe of 4 cameras); keyframes
+  // beyond it are read from their files again by the loop stage. The
+  // outputs are the same either way. 0: every keyframe is read again.
+  int frontend_cache_mb = 1024;
   LoopClosureOptions closure;   // keys directly under /loop
   PoseGraphOptions pose_graph;  // /loop/pose_graph
 

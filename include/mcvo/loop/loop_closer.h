@@ -199,6 +199,8 @@ class LoopCloser {
   // True when `features` were extracted for the same points' cameras and
   // pixels, in the same order, as `keyframe` has.
   static bool ImageFeaturesFit(const LoopImageFeatures& features, const LoopKeyframe& keyframe);
+  // The bytes its features hold (descriptors, pixels, indices).
+  static size_t ImageFeaturesBytes(const LoopImageFeatures& features);
 
   // Relocalisation against a map (pipeline/relocalise_segments.h): adds a
   // keyframe to the database without querying it.
