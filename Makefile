@@ -20,7 +20,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # the global BA with: about 4x faster than ATLAS, one thread (mcvo/util/blas.h).
 DEB_PACKAGES := build-essential cmake pkg-config git ca-certificates \
   libeigen3-dev libceres-dev libsuitesparse-dev libopenblas0-serial libssl-dev libgoogle-glog-dev libgflags-dev \
-  libopencv-dev libopencv-contrib-dev nlohmann-json3-dev libyaml-cpp-dev \
+  libopencv-dev libopencv-contrib-dev libdeflate-dev nlohmann-json3-dev libyaml-cpp-dev \
   libgtest-dev libgmock-dev libopengv-dev colmap chromium \
   clang-format clang-tidy clang libclang-rt-14-dev
 

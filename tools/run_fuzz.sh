@@ -22,7 +22,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-ALL_TARGETS=(rig_json config frames_csv trajectory kalibr kitti360_calib kitti360_mei track_file)
+ALL_TARGETS=(rig_json config frames_csv trajectory kalibr kitti360_calib kitti360_mei track_file png_decode)
 SECONDS_PER_TARGET=${FUZZ_SECONDS:-600}
 BUILD=${FUZZ_BUILD:-build-fuzz}
 RESULTS=${FUZZ_RESULTS:-results/fuzz}
@@ -48,7 +48,10 @@ if [ ! -f "$BUILD/CMakeCache.txt" ]; then
   CC=clang CXX=clang++ cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Debug -DMCVO_FUZZ=ON \
     -DMCVO_BUILD_TESTS=OFF -DMCVO_WERROR=OFF
 fi
-cmake --build "$BUILD" --target mcvo_fuzz -j "$JOBS"
+# Only the targets to run (and the libraries they link).
+BUILD_TARGETS=()
+for target in "${TARGETS[@]}"; do BUILD_TARGETS+=("mcvo_fuzz_$target"); done
+cmake --build "$BUILD" --target "${BUILD_TARGETS[@]}" -j "$JOBS"
 # The checkout the targets were built from.
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 if [ -n "$(git status --porcelain -- src include tests/fuzz CMakeLists.txt 2>/dev/null)" ]; then
@@ -148,6 +151,7 @@ done
       kitti360_calib) reader="KITTI-360 calib_cam_to_pose.txt, perspective.txt, timestamps.txt" ;;
       kitti360_mei) reader="KITTI-360 image_0N.yaml (ReadMeiYaml)" ;;
       track_file) reader="track file (TrackFileReader)" ;;
+      png_decode) reader="PNG images (DecodePng, against OpenCV)" ;;
       *) reader="" ;;
     esac
     echo "| $t | $reader | $date | $rev | $secs | $execs | $eps | $seeds -> $files files, $kb KB | $cov | $ft | $rss | $crashes${names:+ ($names)} |"

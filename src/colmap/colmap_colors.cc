@@ -6,11 +6,11 @@
 #include <filesystem>
 #include <utility>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "colmap_internal.h"
 #include "mcvo/colmap/colmap_model.h"
+#include "mcvo/dataset/image_file.h"
 
 namespace mcvo {
 namespace colmap_internal {
@@ -67,7 +67,7 @@ cv::Mat DecodeColmapColorImage(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) return cv::Mat();
   try {
-    return cv::imread(path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+    return ReadImageFile(path);
   } catch (const cv::Exception&) {
     return cv::Mat();
   }

@@ -17,10 +17,10 @@
 #include <utility>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "mcvo/dataset/dataset.h"
+#include "mcvo/dataset/image_file.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/parallel.h"
@@ -45,7 +45,7 @@ cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera)
   if (std::filesystem::file_size(path, ec) == 0 && !ec) MCVO_THROW_INPUT(path.string(), ": empty image file (0 bytes)");
   cv::Mat image;
   try {
-    image = cv::imread(path.string(), cv::IMREAD_ANYCOLOR | cv::IMREAD_ANYDEPTH);
+    image = ReadImageFile(path);
   } catch (const cv::Exception& e) {
     MCVO_THROW_INPUT(path.string(), ": cannot decode image: ", e.what());
   }
