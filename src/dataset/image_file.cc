@@ -96,60 +96,45 @@ bool ParseHeader(const uint8_t* data, uint32_t length, Header* header) {
 
 // Undoes one row's filter in place. row: the filtered bytes, becoming the
 // reconstructed ones; prior: the reconstructed row above (zeros for the
-// first row). BPP is a template argument so that the byte-serial loops of
-// Sub, Average and Paeth compile to tight code; for one byte per pixel the
-// byte to the left is carried in a register (through memory, each byte
-// would wait for the store of the one before).
+// first row); bytes: a multiple of BPP. Sub, Average and Paeth are serial
+// along the row, one chain per byte of a pixel: BPP is a template argument
+// so that each chain's left byte (a) and upper-left byte (c) stay in
+// registers (through memory, each byte would wait for the store of the one
+// before it).
 template <int BPP>
 bool Unfilter(int filter, uint8_t* row, const uint8_t* prior, size_t bytes) {
   const auto paeth = [](int a, int b, int c) {
     const int pa = std::abs(b - c), pb = std::abs(a - c), pc = std::abs(a + b - 2 * c);
     // Two selects rather than nested branches: conditional moves, no
-    // mispredictions on the byte-serial chain.
+    // mispredictions on the serial chain.
     const int b_or_c = pb <= pc ? b : c;
     return ((pa <= pb) & (pa <= pc)) ? a : b_or_c;
   };
-  const size_t head = std::min<size_t>(BPP, bytes);
+  std::array<int, BPP> a{}, c{};  // left of the row: 0
   switch (filter) {
     case 0:
       return true;
     case 1:
-      if constexpr (BPP == 1) {
-        unsigned a = 0;
-        for (size_t x = 0; x < bytes; ++x) row[x] = static_cast<uint8_t>(a = (row[x] + a) & 0xffu);
-      } else {
-        for (size_t x = BPP; x < bytes; ++x) row[x] = static_cast<uint8_t>(row[x] + row[x - BPP]);
+      for (size_t x = 0; x < bytes; x += BPP) {
+        for (int k = 0; k < BPP; ++k) row[x + k] = static_cast<uint8_t>(a[k] = (row[x + k] + a[k]) & 0xff);
       }
       return true;
     case 2:
       for (size_t x = 0; x < bytes; ++x) row[x] = static_cast<uint8_t>(row[x] + prior[x]);
       return true;
     case 3:
-      if constexpr (BPP == 1) {
-        unsigned a = 0;
-        for (size_t x = 0; x < bytes; ++x)
-          row[x] = static_cast<uint8_t>(a = (row[x] + ((a + prior[x]) >> 1)) & 0xffu);
-      } else {
-        for (size_t x = 0; x < head; ++x) row[x] = static_cast<uint8_t>(row[x] + (prior[x] >> 1));
-        for (size_t x = BPP; x < bytes; ++x) {
-          row[x] = static_cast<uint8_t>(row[x] + ((unsigned{row[x - BPP]} + unsigned{prior[x]}) >> 1));
+      for (size_t x = 0; x < bytes; x += BPP) {
+        for (int k = 0; k < BPP; ++k) {
+          row[x + k] = static_cast<uint8_t>(a[k] = (row[x + k] + ((a[k] + prior[x + k]) >> 1)) & 0xff);
         }
       }
       return true;
     case 4:
-      // Paeth with a = c = 0 (left of the row) is the byte above.
-      if constexpr (BPP == 1) {
-        int a = 0, c = 0;
-        for (size_t x = 0; x < bytes; ++x) {
-          const int b = prior[x];
-          a = (row[x] + paeth(a, b, c)) & 0xff;
-          row[x] = static_cast<uint8_t>(a);
-          c = b;
-        }
-      } else {
-        for (size_t x = 0; x < head; ++x) row[x] = static_cast<uint8_t>(row[x] + prior[x]);
-        for (size_t x = BPP; x < bytes; ++x) {
-          row[x] = static_cast<uint8_t>(row[x] + paeth(row[x - BPP], prior[x], prior[x - BPP]));
+      for (size_t x = 0; x < bytes; x += BPP) {
+        for (int k = 0; k < BPP; ++k) {
+          const int b = prior[x + k];
+          row[x + k] = static_cast<uint8_t>(a[k] = (row[x + k] + paeth(a[k], b, c[k])) & 0xff);
+          c[k] = b;
         }
       }
       return true;
