@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <vector>
@@ -37,10 +38,17 @@ uint32_t BigEndian32(const uint8_t* p) {
 
 bool ChunkIs(const uint8_t* type, const char* name) { return std::memcmp(type, name, 4) == 0; }
 
-// Ancillary chunks that do not change the pixels OpenCV decodes.
+// Ancillary chunks that do not change the pixels OpenCV decodes: text,
+// time and pixel size, and the colour-space and display hints (gamma,
+// chromaticities, sRGB intent, ICC profile, significant bits, background)
+// that libpng applies only when asked to (png_set_gamma, png_set_shift,
+// png_set_background), which OpenCV's decoder never does. Not here: tRNS
+// (transparency, which may become an alpha channel) and eXIf (orientation).
 bool IsInformational(const uint8_t* type) {
-  return ChunkIs(type, "tEXt") || ChunkIs(type, "zTXt") || ChunkIs(type, "iTXt") || ChunkIs(type, "tIME") ||
-         ChunkIs(type, "pHYs");
+  static constexpr const char* kTypes[] = {"tEXt", "zTXt", "iTXt", "tIME", "pHYs", "gAMA",
+                                           "cHRM", "sRGB", "iCCP", "sBIT", "bKGD"};
+  return std::any_of(std::begin(kTypes), std::end(kTypes),
+                     [&](const char* name) { return ChunkIs(type, name); });
 }
 
 struct DecompressorDeleter {

@@ -208,6 +208,26 @@ TEST(DecodePng, EqualsOpenCvOnSplitDataAndTextChunks) {
                 {"tIME", std::string(7, '\1'), true}};
   const std::vector<uint8_t> png = EncodePng(spec, samples);
   ExpectSameMat(Decode(png), OpenCvDecode(png), "text, pHYs and tIME chunks");
+  // Colour-space and display hints: OpenCV does not apply them (a gamma of
+  // 1/1.0, sRGB, 4 significant bits, a background, chromaticities).
+  for (int colour : {0, 2, 6}) {
+    for (int depth : {8, 16}) {
+      PngSpec hinted = spec;
+      hinted.colour = colour;
+      hinted.depth = depth;
+      const int channels = colour == 0 ? 1 : 3;
+      hinted.extra = {
+          {"gAMA", std::string("\0\x01\x86\xa0", 4), false},
+          {"sRGB", std::string(1, '\0'), false},
+          {"sBIT", std::string(static_cast<size_t>(channels + (colour == 6 ? 1 : 0)), '\4'), false},
+          {"cHRM", std::string(32, '\x10'), false},
+          {"bKGD", std::string(static_cast<size_t>(2 * channels), '\0'), false}};
+      const std::vector<uint8_t> hinted_png = EncodePng(hinted, Samples(hinted, 9));
+      ExpectSameMat(Decode(hinted_png), OpenCvDecode(hinted_png),
+                    "gAMA, sRGB, sBIT, cHRM, bKGD; colour " + std::to_string(colour) + ", depth " +
+                        std::to_string(depth));
+    }
+  }
 }
 
 TEST(DecodePng, EqualsOpenCvOnPngsOpenCvWrites) {
@@ -244,9 +264,9 @@ TEST(DecodePng, DeclinesOtherLayoutsAndReadImageFileStillDecodesThem) {
   const std::vector<uint8_t> samples = Samples(spec, 11);
   std::vector<std::pair<std::string, std::vector<uint8_t>>> declined;
   // Chunks that change the pixels OpenCV gives, or might.
-  for (const char* type : {"gAMA", "sBIT", "tRNS", "eXIf"}) {
+  for (const char* type : {"tRNS", "eXIf", "sPLT", "abCd"}) {
     PngSpec with = spec;
-    with.extra = {{type, std::string(type == std::string("gAMA") ? 4 : 1, '\1'), false}};
+    with.extra = {{type, std::string(2, '\1'), false}};
     declined.emplace_back(type, EncodePng(with, samples));
   }
   // A 1-bit image and a palette image, as OpenCV writes them.

@@ -13,8 +13,9 @@
 //   odd:  a header (width, height, depth, colour type, interlace, and
 //         which chunks to add) and the filtered scanlines themselves,
 //         filter bytes included, deflated here into a valid stream, cut
-//         short or given extra rows when the header says so (the row
-//         filters and the pixel layouts).
+//         short or given extra rows when the header says so, with text,
+//         gamma and other colour-space chunks (the row filters, the pixel
+//         layouts, the ancillary chunks DecodePng accepts).
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -72,6 +73,7 @@ std::vector<uint8_t> Built(const uint8_t* data, size_t size) {
   const uint8_t interlace = (data[2] >> 4) & 1;
   const uint8_t flags = data[3];
   const int level = data[4] % 13;
+  const int hints = data[4] / 13;  // which colour-space / display chunks to add
   const int channels = colour == 0 ? 1 : colour == 2 ? 3 : colour == 4 ? 2 : colour == 6 ? 4 : 1;
   const size_t row = 1 + width * static_cast<size_t>(channels) * (depth / 8);
   // Rows: exactly the image's, one short or one more when the flags say so.
@@ -99,6 +101,17 @@ std::vector<uint8_t> Built(const uint8_t* data, size_t size) {
   PutChunk(&png, "IHDR", header);
   if (flags & 16) PutChunk(&png, "tEXt", {'k', 0, 'v'});
   if (flags & 32) PutChunk(&png, "gAMA", {0, 0, 0xb1, 0x8f});
+  // Their contents from the payload: valid or not, OpenCV must not apply them.
+  const auto payload_bytes = [&](size_t n) {
+    std::vector<uint8_t> bytes(n, 0);
+    for (size_t i = 0; i < n && size > 5; ++i) bytes[i] = data[5 + (i * 7) % (size - 5)];
+    return bytes;
+  };
+  if (hints & 1) PutChunk(&png, "sRGB", payload_bytes(1));
+  if (hints & 2) PutChunk(&png, "cHRM", payload_bytes(32));
+  if (hints & 4) PutChunk(&png, "sBIT", payload_bytes(static_cast<size_t>(channels)));
+  if (hints & 8) PutChunk(&png, "bKGD", payload_bytes(colour == 0 || colour == 4 ? 2 : 6));
+  if (hints & 16) PutChunk(&png, "iCCP", payload_bytes(24));
   if (colour == 3) PutChunk(&png, "PLTE", {0, 0, 0, 255, 255, 255});
   const size_t pieces = 1 + (flags >> 6);
   const size_t piece = std::max<size_t>(1, (zlib.size() + pieces - 1) / pieces);

@@ -24,8 +24,9 @@ namespace mcvo {
 // The decode of a PNG file held in memory, as cv::imdecode(data,
 // IMREAD_ANYCOLOR | IMREAD_ANYDEPTH) gives it, for the layouts it covers:
 // not interlaced; 8 or 16 bits per sample; grey, grey + alpha, RGB or RGBA;
-// no chunks but IHDR, consecutive IDATs, IEND and text, time and pixel-size
-// chunks (tEXt, zTXt, iTXt, tIME, pHYs); every CRC, the zlib stream and its
+// no chunks but IHDR, consecutive IDATs, IEND and ancillary ones that
+// OpenCV does not apply (tEXt, zTXt, iTXt, tIME, pHYs, gAMA, cHRM, sRGB,
+// iCCP, sBIT, bKGD); every CRC, the zlib stream and its
 // Adler-32 sound, with no data short or left over. Grey comes out as one
 // channel (CV_8UC1 / CV_16UC1), everything else as three channels in BGR
 // order, alpha dropped (as OpenCV does for IMREAD_ANYCOLOR); 16-bit samples
