@@ -226,7 +226,7 @@ bool ReadChunks(const uint8_t* data, size_t size, Header* header, std::vector<ui
         idat_done = true;
       }
     } else {
-      return false;  // a chunk that may change the pixels (PLTE, tRNS, gAMA, sBIT, eXIf, ...)
+      return false;  // a chunk that may change the pixels (PLTE, tRNS, eXIf, ...) or an unknown one
     }
   }
 }

@@ -3,10 +3,11 @@
 // layouts cameras write decoded by DecodePng.
 //
 // Why a PNG decoder of our own: libpng (through OpenCV, and libspng alike)
-// inflates a PNG row by row through zlib and takes 19 ms for a 1400 x 1400
-// grey fisheye image of the KITTI-360 rig, 3.5 times what it takes to inflate
-// the same data in one call with libdeflate and undo the row filters.
-// Decoding was the largest stage of the frontend (results/throughput.md).
+// inflates a PNG row by row through zlib and takes 21 ms for a 1400 x 1400
+// grey fisheye image of the KITTI-360 rig, twice what it takes to inflate
+// the same data in one call with libdeflate and undo the row filters
+// (1.6-2.4 times over 17 cameras, results/png_decode.md). Decoding was the
+// largest stage of the frontend (results/throughput.md).
 // DecodePng covers only the layouts whose pixels are fixed by the PNG
 // standard alone, and gives for them the Mat OpenCV gives, byte for byte
 // (tests/dataset/image_file_test.cc, and a differential fuzz target,
