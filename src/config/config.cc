@@ -60,6 +60,7 @@ void Visit(V& v, SuperPointOptions* o) {
   v.Field("confidence_threshold", &o->confidence_threshold);
   v.Field("nms_radius_px", &o->nms_radius_px);
   v.Field("border_px", &o->border_px);
+  v.Field("detect_missing_fraction", &o->detect_missing_fraction);
 }
 
 template <typename V>

@@ -37,6 +37,7 @@ void FrontendOptions::Check() const {
   CheckInRange("/frontend/superpoint/confidence_threshold", superpoint.confidence_threshold, 0.0, 1.0);
   CheckAtLeast("/frontend/superpoint/nms_radius_px", superpoint.nms_radius_px, 0);
   CheckAtLeast("/frontend/superpoint/border_px", superpoint.border_px, 0);
+  CheckInRange("/frontend/superpoint/detect_missing_fraction", superpoint.detect_missing_fraction, 0.0, 1.0);
   CheckInRange("/frontend/cross_camera/min_view_overlap", cross_camera.min_view_overlap, 0.0, 1.0);
   CheckPositive("/frontend/cross_camera/init_distance_m", cross_camera.init_distance_m);
   CheckAtLeast("/frontend/cross_camera/near_distance_m", cross_camera.near_distance_m, 0.0);

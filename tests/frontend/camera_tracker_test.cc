@@ -424,6 +424,48 @@ TEST(CameraTrackerTest, CarriesDescriptorsWithFeatures) {
   }
 }
 
+// superpoint.detect_missing_fraction: a learned detector runs on a frame
+// only when that fraction of the budget is free (or nothing is tracked);
+// on the frames between, the camera keeps what it tracks and adds nothing.
+TEST(CameraTrackerTest, LearnedDetectorRunsOnlyWhenEnoughOfTheBudgetIsFree) {
+  const UrbanSequence& seq = Sequence();
+  FrontendOptions options;
+  options.detector = DetectorType::kXFeat;
+  options.model_path = MCVO_SHARED_DIR "/models/xfeat_480x640.onnx";
+  options.superpoint.detect_missing_fraction = 0.0;
+  const int budget = options.max_features_pinhole;
+  int new_every_frame = 0;
+  {
+    CameraTracker tracker(seq.rig.cameras[0], cv::Mat(), options, CreateDetector(options));
+    for (const cv::Mat& image : seq.images) new_every_frame += tracker.Track(image).stats.new_features;
+  }
+  options.superpoint.detect_missing_fraction = 0.5;
+  CameraTracker tracker(seq.rig.cameras[0], cv::Mat(), options, CreateDetector(options));
+  int skipped = 0, detected = 0, new_features = 0;
+  for (size_t frame = 0; frame < seq.images.size(); ++frame) {
+    const CameraFrameStats stats = tracker.Track(seq.images[frame]).stats;
+    new_features += stats.new_features;
+    if (frame == 0) {
+      EXPECT_GT(stats.new_features, budget / 2);
+      continue;
+    }
+    ASSERT_GT(stats.tracked, 0) << "frame " << frame;
+    if (budget - stats.tracked < budget / 2) {
+      EXPECT_EQ(stats.new_features, 0) << "frame " << frame << ": " << stats.tracked << " tracked";
+      ++skipped;
+    } else {
+      EXPECT_GT(stats.new_features, 0) << "frame " << frame << ": " << stats.tracked << " tracked";
+      ++detected;
+    }
+  }
+  std::printf("detect_missing_fraction 0.5: %d frames skipped, %d detected; %d new features (%d every frame)\n",
+              skipped, detected, new_features, new_every_frame);
+  // Both branches taken on these 10 frames, and fewer features added.
+  EXPECT_GT(skipped, 0);
+  EXPECT_GT(detected, 0);
+  EXPECT_LT(new_features, new_every_frame);
+}
+
 // Cross-camera matching reads the images as decoded unless
 // cross_camera.equalised: CLAHE maps each camera's intensities by its own
 // tiles, which moves a patch's match between two cameras.
