@@ -92,12 +92,13 @@ struct SuperPointOptions {
   int nms_radius_px = 2;
   int border_px = 4;
   // The network runs on a camera's image only when at least this fraction
-  // of the camera's feature budget is free (features lost since it last
-  // ran), or when the camera tracks nothing; 0: on every frame. One forward
+  // of the camera's feature budget is free (the budget minus the features
+  // it tracks), or when the camera tracks nothing; 0: on every frame. One forward
   // pass costs the same whatever it is asked for, so topping up a few lost
   // features every frame is most of a learned frontend's time. XFeat on 14
-  // suite sequences, 0.5 against 0: results/learned_detect_skip.md. Not
-  // used by shi_tomasi and orb.
+  // held-out sequences, 0.5 against 0: results/learned_detect_skip.md (the
+  // same rule broke a tri_rear run with Shi-Tomasi). Not used by shi_tomasi
+  // and orb.
   double detect_missing_fraction = 0.5;
 };
 
