@@ -180,9 +180,7 @@ int RunTrack(int argc, const char* const* argv) {
   }
   if (!model_path.empty()) options.frontend.model_path = model_path;
   if (threads >= 0) options.runtime.threads = threads;
-  const bool network = options.frontend.detector == DetectorType::kXFeat ||
-                       options.frontend.detector == DetectorType::kSuperPoint;
-  if (network && options.frontend.model_path.empty()) {
+  if (IsLearnedDetector(options.frontend.detector) && options.frontend.model_path.empty()) {
     throw UsageError(StrCat("--detector ", EnumToName(kDetectorTypeNames, options.frontend.detector),
                             " needs --model FILE (or /frontend/model_path in the config)"));
   }

@@ -467,8 +467,7 @@ void CameraTracker::Impl::AddNewFeatures(const cv::Mat& input, const cv::Mat& im
                                          CameraFrameResult* result) const {
   const int wanted = max_features - result->stats.tracked;
   if (wanted <= 0) return;
-  const bool learned = options.detector == DetectorType::kXFeat || options.detector == DetectorType::kSuperPoint;
-  if (learned && result->stats.tracked > 0 &&
+  if (IsLearnedDetector(options.detector) && result->stats.tracked > 0 &&
       wanted < options.superpoint.detect_missing_fraction * static_cast<double>(max_features)) {
     return;  // FrontendOptions::superpoint.detect_missing_fraction
   }

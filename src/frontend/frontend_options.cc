@@ -6,7 +6,7 @@
 namespace mcvo {
 
 void FrontendOptions::Check() const {
-  if ((detector == DetectorType::kXFeat || detector == DetectorType::kSuperPoint) && model_path.empty()) {
+  if (IsLearnedDetector(detector) && model_path.empty()) {
     MCVO_THROW_INPUT("/frontend/model_path: required for detector \"",
                      EnumToName(kDetectorTypeNames, detector), "\" (an ONNX model file)");
   }

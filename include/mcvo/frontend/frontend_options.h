@@ -14,6 +14,11 @@ inline constexpr EnumName<DetectorType> kDetectorTypeNames[] = {{DetectorType::k
                                                                 {DetectorType::kOrb, "orb"},
                                                                 {DetectorType::kXFeat, "xfeat"},
                                                                 {DetectorType::kSuperPoint, "superpoint"}};
+// A network detector (an ONNX model, frontend.model_path): XFeat or the
+// SuperPoint layout.
+inline bool IsLearnedDetector(DetectorType type) {
+  return type == DetectorType::kXFeat || type == DetectorType::kSuperPoint;
+}
 
 // How new features are chosen among the detections (reference notes,
 // "3-priority quad-tree selection").
