@@ -151,8 +151,9 @@ struct InitializerOptions {
   double max_relative_scale_sigma_fallback = 0.05;
   // Offline fallback (mcvo run): when the whole sequence posed no frame
   // because the metric scale was never observable (the rig never turned and
-  // no cameras overlap), it is run again with its best-tracked camera alone,
-  // as monocular odometry at an arbitrary scale (odometry_stage.cc).
+  // no overlapping cameras matched enough features), it is run again with
+  // its best-tracked camera alone, as monocular odometry at an arbitrary
+  // scale (odometry_stage.cc).
   bool monocular_fallback = true;
   // Windows passed over after a poorly observable scale: when the linear
   // scale screen (step 4) rejects a window whose best camera's scale sigma

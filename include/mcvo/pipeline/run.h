@@ -81,7 +81,8 @@ std::string RunPosingWarning(int frames, int posed, const std::vector<std::strin
 // lost", kScaleNeverObservable, ...), and the most frequent category of a
 // list ("unknown" for an empty one).
 inline constexpr const char* kScaleNeverObservable =
-    "the metric scale was never observable (the rig did not turn and no cameras overlap)";
+    "the metric scale was never observable (the rig did not turn, and no overlapping cameras matched enough "
+    "features)";
 std::string PosingFailureCategory(const std::string& reason);
 std::string MostFrequentPosingFailure(const std::vector<std::string>& unposed_reasons);
 
