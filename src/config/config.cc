@@ -85,6 +85,7 @@ void Visit(V& v, FrontendOptions* o) {
   v.Field("max_features_pinhole", &o->max_features_pinhole);
   v.Field("max_features_fisheye", &o->max_features_fisheye);
   v.Field("min_distance_px", &o->min_distance_px);
+  v.Field("pixel_scale_reference_px", &o->pixel_scale_reference_px);
   v.Enum("selection", &o->selection, kFeatureSelectionNames);
   v.Field("candidate_factor", &o->candidate_factor);
   v.Field("detection_max_megapixels", &o->detection_max_megapixels);

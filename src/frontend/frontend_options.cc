@@ -1,5 +1,8 @@
 #include "mcvo/frontend/frontend_options.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "mcvo/util/error.h"
 #include "mcvo/util/option_checks.h"
 
@@ -13,6 +16,7 @@ void FrontendOptions::Check() const {
   CheckPositive("/frontend/max_features_pinhole", max_features_pinhole);
   CheckPositive("/frontend/max_features_fisheye", max_features_fisheye);
   CheckAtLeast("/frontend/min_distance_px", min_distance_px, 0);
+  CheckAtLeast("/frontend/pixel_scale_reference_px", pixel_scale_reference_px, 0.0);
   CheckAtLeast("/frontend/candidate_factor", candidate_factor, 1);
   CheckAtLeast("/frontend/detection_max_megapixels", detection_max_megapixels, 0.0);
   CheckPositive("/frontend/ransac_threshold_px", ransac_threshold_px);
@@ -47,6 +51,27 @@ void FrontendOptions::Check() const {
   CheckAtLeast("/frontend/cross_camera/max_matches_per_pair", cross_camera.max_matches_per_pair, 0);
   CheckAtLeast("/frontend/cross_camera/rematch_every", cross_camera.rematch_every, 1);
   CheckInRange("/frontend/cross_camera/rematch_below_fraction", cross_camera.rematch_below_fraction, 0.0, 1.0);
+}
+
+double PixelScaleForCamera(const FrontendOptions& options, int width, int height) {
+  if (!(options.pixel_scale_reference_px > 0.0) || width <= 0 || height <= 0) return 1.0;
+  const double size = std::sqrt(static_cast<double>(width) * static_cast<double>(height));
+  return std::min(1.0, size / options.pixel_scale_reference_px);
+}
+
+FrontendOptions ScalePixelParameters(const FrontendOptions& options, double scale) {
+  if (!(scale < 1.0) || !(scale > 0.0)) return options;
+  FrontendOptions scaled = options;
+  const auto scaled_int = [scale](int value, int floor) {
+    return std::min(value, std::max(floor, static_cast<int>(std::lround(value * scale))));
+  };
+  scaled.min_distance_px = scaled_int(options.min_distance_px, 1);
+  scaled.anchor.half_size_px = scaled_int(options.anchor.half_size_px, 3);
+  scaled.clahe.tile_grid = scaled_int(options.clahe.tile_grid, 2);
+  // The odd size nearest to window x scale: 2 floor(window x scale / 2) + 1.
+  const int window = 2 * static_cast<int>(std::floor(options.lk.window_px * scale / 2.0)) + 1;
+  scaled.lk.window_px = std::min(options.lk.window_px, std::max(5, window));
+  return scaled;
 }
 
 }  // namespace mcvo

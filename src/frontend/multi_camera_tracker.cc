@@ -22,15 +22,54 @@
 #include <algorithm>
 #include <atomic>
 #include <exception>
+#include <string>
 #include <thread>
 
 #include "mcvo/frontend/cross_camera.h"
 #include "mcvo/frontend/detector.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/logging.h"
 #include "mcvo/util/parallel.h"
+#include "mcvo/util/strings.h"
 
 namespace mcvo {
-namespace {}  // namespace
+namespace {
+
+// Per camera: PixelScaleForCamera.
+std::vector<double> PixelScales(const Rig& rig, const FrontendOptions& options) {
+  std::vector<double> scales;
+  for (const Camera& camera : rig.cameras) scales.push_back(PixelScaleForCamera(options, camera.width, camera.height));
+  return scales;
+}
+
+// Says which cameras PixelScales scaled, one line per image size (once the
+// trackers exist: a start-up error stays the only line).
+void LogScaledCameras(const Rig& rig, const FrontendOptions& options, const std::vector<double>& scales) {
+  std::vector<std::pair<std::pair<int, int>, std::string>> scaled_sizes;  // (width, height) -> names
+  for (size_t c = 0; c < rig.cameras.size(); ++c) {
+    if (scales[c] >= 1.0) continue;
+    const Camera& camera = rig.cameras[c];
+    const std::pair<int, int> size(camera.width, camera.height);
+    const auto same = std::find_if(scaled_sizes.begin(), scaled_sizes.end(),
+                                   [&](const auto& entry) { return entry.first == size; });
+    if (same == scaled_sizes.end()) {
+      scaled_sizes.emplace_back(size, camera.name);
+    } else {
+      same->second += ", " + camera.name;
+    }
+  }
+  for (const auto& [size, names] : scaled_sizes) {
+    const double scale = PixelScaleForCamera(options, size.first, size.second);
+    const FrontendOptions scaled = ScalePixelParameters(options, scale);
+    MCVO_LOG(kInfo, "frontend: ", names, " (", size.first, "x", size.second, " px): pixel parameters scaled by ",
+             FormatFixed(scale, 2), " (frontend.pixel_scale_reference_px ",
+             FormatFixed(options.pixel_scale_reference_px, 0), "): min distance ", scaled.min_distance_px,
+             " px, LK window ", scaled.lk.window_px, " px, anchor half size ", scaled.anchor.half_size_px,
+             " px, CLAHE ", scaled.clahe.tile_grid, "x", scaled.clahe.tile_grid, " tiles");
+  }
+}
+
+}  // namespace
 
 int CountCrossCameraMatches(const MultiCameraFrame& frame, int camera_a) {
   return static_cast<int>(std::count_if(frame.cross_matches.begin(), frame.cross_matches.end(),
@@ -59,10 +98,12 @@ MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat
     MCVO_THROW_INPUT("frontend: ", masks.size(), " masks for a rig of ", rig.NumCameras(), " cameras");
   }
   impl_->threads = std::max(1, threads);
+  const std::vector<double> scales = PixelScales(rig, options);
   for (int c = 0; c < rig.NumCameras(); ++c) {
     const cv::Mat mask = masks.empty() ? cv::Mat() : masks[static_cast<size_t>(c)];
+    const FrontendOptions camera_options = ScalePixelParameters(options, scales[static_cast<size_t>(c)]);
     impl_->trackers.push_back(std::make_unique<CameraTracker>(rig.cameras[static_cast<size_t>(c)], mask,
-                                                              options, CreateDetector(options)));
+                                                              camera_options, CreateDetector(camera_options)));
   }
   impl_->pairs = SelectCrossCameraPairs(rig, masks, options.cross_camera);
   // Each matcher computes its warp maps (a Project per pixel of camera a
@@ -80,14 +121,17 @@ MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat
       bearings_camera = a;
     }
     const cv::Mat mask_b = masks.empty() ? cv::Mat() : masks[static_cast<size_t>(b)];
-    impl_->matchers.push_back(std::make_unique<CrossCameraMatcher>(
-        a, b, camera_a, rig.cameras[static_cast<size_t>(b)], mask_b, options, impl_->threads, &bearings_a));
+    const double pair_scale = std::min(scales[static_cast<size_t>(a)], scales[static_cast<size_t>(b)]);
+    impl_->matchers.push_back(std::make_unique<CrossCameraMatcher>(a, b, camera_a, rig.cameras[static_cast<size_t>(b)],
+                                                                   mask_b, ScalePixelParameters(options, pair_scale),
+                                                                   impl_->threads, &bearings_a));
   }
   impl_->rematch_every = options.cross_camera.rematch_every;
   impl_->rematch_below_fraction = options.cross_camera.rematch_below_fraction;
   impl_->last_matches.resize(impl_->pairs.size());
   impl_->frames_since_full.assign(impl_->pairs.size(), 0);
   impl_->full_matches.assign(impl_->pairs.size(), 0);
+  LogScaledCameras(rig, options, scales);
 }
 
 MultiCameraTracker::~MultiCameraTracker() = default;

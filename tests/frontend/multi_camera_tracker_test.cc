@@ -1,5 +1,6 @@
 #include "mcvo/frontend/multi_camera_tracker.h"
 
+#include <cmath>
 #include <cstring>
 #include <set>
 #include <vector>
@@ -54,9 +55,9 @@ const RigSequence& Sequence() {
   return *sequence;
 }
 
-std::vector<MultiCameraFrame> TrackAll(int threads, const std::vector<std::vector<cv::Mat>>& frames) {
+std::vector<MultiCameraFrame> TrackAll(int threads, const std::vector<std::vector<cv::Mat>>& frames,
+                                       FrontendOptions options = {}) {
   const RigSequence& seq = Sequence();
-  FrontendOptions options;
   options.detector = DetectorType::kShiTomasi;
   MultiCameraTracker tracker(seq.rig, seq.masks, options, threads);
   std::vector<MultiCameraFrame> out;
@@ -163,6 +164,76 @@ TEST(MultiCameraTrackerTest, NewIdsAreUniqueAndIncreaseInCameraOrder) {
         }
       }
     }
+  }
+}
+
+TEST(MultiCameraTrackerTest, PixelScaleFollowsTheCameraSize) {
+  FrontendOptions options;  // pixel_scale_reference_px 250
+  EXPECT_NEAR(PixelScaleForCamera(options, 180, 135), std::sqrt(180.0 * 135.0) / 250.0, 1e-12);
+  EXPECT_NEAR(PixelScaleForCamera(options, 246, 184), 0.851, 1e-3);  // irregular5's smallest camera at 0.48
+  EXPECT_EQ(PixelScaleForCamera(options, 307, 230), 1.0);
+  EXPECT_EQ(PixelScaleForCamera(options, 1400, 1400), 1.0);
+  EXPECT_EQ(PixelScaleForCamera(options, 0, 135), 1.0);
+  options.pixel_scale_reference_px = 0.0;
+  EXPECT_EQ(PixelScaleForCamera(options, 180, 135), 1.0);
+}
+
+TEST(MultiCameraTrackerTest, ScalePixelParametersRoundsAndKeepsFloors) {
+  FrontendOptions options;
+  const FrontendOptions same = ScalePixelParameters(options, 1.0);
+  EXPECT_EQ(same.min_distance_px, 20);
+  EXPECT_EQ(same.lk.window_px, 15);
+  EXPECT_EQ(same.anchor.half_size_px, 10);
+  EXPECT_EQ(same.clahe.tile_grid, 8);
+  const FrontendOptions small = ScalePixelParameters(options, 0.62);  // a 180 x 135 camera
+  EXPECT_EQ(small.min_distance_px, 12);
+  EXPECT_EQ(small.lk.window_px, 9);  // 9.3: the nearest odd size
+  EXPECT_EQ(small.anchor.half_size_px, 6);
+  EXPECT_EQ(small.clahe.tile_grid, 5);
+  EXPECT_EQ(ScalePixelParameters(options, 0.96).lk.window_px, 15);  // 14.4
+  EXPECT_EQ(ScalePixelParameters(options, 0.9).lk.window_px, 13);   // 13.5
+  const FrontendOptions tiny = ScalePixelParameters(options, 0.05);
+  EXPECT_EQ(tiny.min_distance_px, 1);
+  EXPECT_EQ(tiny.lk.window_px, 5);
+  EXPECT_EQ(tiny.anchor.half_size_px, 3);
+  EXPECT_EQ(tiny.clahe.tile_grid, 2);
+  // A value the user set below a floor is never raised.
+  options.lk.window_px = 3;
+  options.min_distance_px = 0;
+  EXPECT_EQ(ScalePixelParameters(options, 0.5).lk.window_px, 3);
+  EXPECT_EQ(ScalePixelParameters(options, 0.5).min_distance_px, 0);
+  // Nothing else moves.
+  EXPECT_EQ(small.max_features_pinhole, options.max_features_pinhole);
+  EXPECT_EQ(small.lk.pyramid_levels, options.lk.pyramid_levels);
+  EXPECT_EQ(small.anchor.weight_sigma_px, options.anchor.weight_sigma_px);
+}
+
+// The quarter-resolution KITTI-360 rig: pinholes of 352 x 94 px (scaled by
+// 0.73: min distance 15 px) and fisheyes of 350 x 350 px (not scaled).
+TEST(MultiCameraTrackerTest, OnlySmallCamerasGetScaledParameters) {
+  const RigSequence& seq = Sequence();
+  FrontendOptions fixed;
+  fixed.pixel_scale_reference_px = 0.0;
+  const std::vector<MultiCameraFrame> scaled = TrackAll(2, seq.frames);
+  const std::vector<MultiCameraFrame> unscaled = TrackAll(2, seq.frames, fixed);
+  ASSERT_EQ(scaled.size(), unscaled.size());
+  for (size_t f = 0; f < scaled.size(); ++f) {
+    for (size_t c = 2; c < 4; ++c) {  // the fisheyes track as without scaling (ids aside: camera order)
+      const std::vector<TrackedFeature>& a = scaled[f].cameras[c].features;
+      const std::vector<TrackedFeature>& b = unscaled[f].cameras[c].features;
+      ASSERT_EQ(a.size(), b.size()) << "frame " << f << " camera " << c;
+      for (size_t i = 0; i < a.size(); ++i) {
+        EXPECT_TRUE(SameBits(a[i].pixel.x(), b[i].pixel.x()));
+        EXPECT_TRUE(SameBits(a[i].pixel.y(), b[i].pixel.y()));
+        EXPECT_EQ(a[i].track_length, b[i].track_length);
+      }
+    }
+  }
+  // The pinholes' budget of 100 does not fit at 20 px apart on 352 x 94 px;
+  // at 15 px more of it does.
+  for (size_t c = 0; c < 2; ++c) {
+    EXPECT_GT(scaled[0].cameras[c].features.size(), unscaled[0].cameras[c].features.size()) << "camera " << c;
+    EXPECT_LE(scaled[0].cameras[c].features.size(), 100u);
   }
 }
 

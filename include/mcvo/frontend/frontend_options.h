@@ -166,6 +166,14 @@ struct FrontendOptions {
   int max_features_pinhole = 100;
   int max_features_fisheye = 150;
   int min_distance_px = 20;
+  // Small cameras: the frontend's pixel-sized parameters (min_distance_px,
+  // lk.window_px, anchor.half_size_px, clahe.tile_grid) were chosen on
+  // cameras of 265 to 1400 px (sqrt(width x height)). On a camera under
+  // this, they are scaled by sqrt(width x height) / this
+  // (PixelScaleForCamera below); larger cameras keep them as given. In the
+  // benchmark suite only irregular5's 246 x 184 camera is scaled (0.85).
+  // 0: never. Measured in results/suite_small.md (200 and 250 compared).
+  double pixel_scale_reference_px = 250.0;
   FeatureSelection selection = FeatureSelection::kThreePriority;
   int candidate_factor = 4;  // keep the best factor x (max - tracked) new detections before selection
   // Shi-Tomasi on a camera image of more megapixels than this runs on the
@@ -184,5 +192,18 @@ struct FrontendOptions {
   // Throws InputError naming the bad field by its config path.
   void Check() const;
 };
+
+// The factor a camera of width x height scales the pixel-sized parameters
+// by: min(1, sqrt(width x height) / pixel_scale_reference_px); 1 when the
+// reference is 0 or the size is not positive.
+double PixelScaleForCamera(const FrontendOptions& options, int width, int height);
+
+// `options` with its pixel-sized parameters scaled by `scale` (in (0, 1];
+// 1 returns them unchanged): min_distance_px and anchor.half_size_px
+// rounded (at least 1 and 3), lk.window_px to the nearest odd size (at
+// least 5), clahe.tile_grid rounded (at least 2). A camera pair's matcher
+// gets the smaller of its two cameras' scales, so that its LK window fits
+// both trackers' pyramids.
+FrontendOptions ScalePixelParameters(const FrontendOptions& options, double scale);
 
 }  // namespace mcvo
