@@ -170,9 +170,11 @@ struct FrontendOptions {
   // lk.window_px, anchor.half_size_px, clahe.tile_grid) were chosen on
   // cameras of 265 to 1400 px (sqrt(width x height)). On a camera under
   // this, they are scaled by sqrt(width x height) / this
-  // (PixelScaleForCamera below); larger cameras keep them as given. In the
-  // benchmark suite only irregular5's 246 x 184 camera is scaled (0.85).
-  // 0: never. Measured in results/suite_small.md (200 and 250 compared).
+  // (PixelScaleForCamera below; MultiCameraTracker applies it per camera,
+  // a CameraTracker built alone takes its options as given); larger cameras
+  // keep them. In the benchmark suite only irregular5's 246 x 184 camera is
+  // scaled (0.85). 0: never. Measured in results/small_cameras.md (200 and
+  // 250 compared).
   double pixel_scale_reference_px = 250.0;
   FeatureSelection selection = FeatureSelection::kThreePriority;
   int candidate_factor = 4;  // keep the best factor x (max - tracked) new detections before selection
