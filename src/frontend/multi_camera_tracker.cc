@@ -45,24 +45,28 @@ std::vector<double> PixelScales(const Rig& rig, const FrontendOptions& options) 
 // Says which cameras PixelScales scaled, one line per image size (once the
 // trackers exist: a start-up error stays the only line).
 void LogScaledCameras(const Rig& rig, const FrontendOptions& options, const std::vector<double>& scales) {
-  std::vector<std::pair<std::pair<int, int>, std::string>> scaled_sizes;  // (width, height) -> names
+  struct SizeGroup {
+    int width = 0, height = 0;
+    double scale = 1.0;  // the same for every camera of this size
+    std::string names;
+  };
+  std::vector<SizeGroup> groups;
   for (size_t c = 0; c < rig.cameras.size(); ++c) {
     if (scales[c] >= 1.0) continue;
     const Camera& camera = rig.cameras[c];
-    const std::pair<int, int> size(camera.width, camera.height);
-    const auto same = std::find_if(scaled_sizes.begin(), scaled_sizes.end(),
-                                   [&](const auto& entry) { return entry.first == size; });
-    if (same == scaled_sizes.end()) {
-      scaled_sizes.emplace_back(size, camera.name);
+    const auto same = std::find_if(groups.begin(), groups.end(), [&](const SizeGroup& g) {
+      return g.width == camera.width && g.height == camera.height;
+    });
+    if (same == groups.end()) {
+      groups.push_back({camera.width, camera.height, scales[c], camera.name});
     } else {
-      same->second += ", " + camera.name;
+      same->names += ", " + camera.name;
     }
   }
-  for (const auto& [size, names] : scaled_sizes) {
-    const double scale = PixelScaleForCamera(options, size.first, size.second);
-    const FrontendOptions scaled = ScalePixelParameters(options, scale);
-    MCVO_LOG(kInfo, "frontend: ", names, " (", size.first, "x", size.second, " px): pixel parameters scaled by ",
-             FormatFixed(scale, 2), " (frontend.pixel_scale_reference_px ",
+  for (const SizeGroup& g : groups) {
+    const FrontendOptions scaled = ScalePixelParameters(options, g.scale);
+    MCVO_LOG(kInfo, "frontend: ", g.names, " (", g.width, "x", g.height, " px): pixel parameters scaled by ",
+             FormatFixed(g.scale, 2), " (frontend.pixel_scale_reference_px ",
              FormatFixed(options.pixel_scale_reference_px, 0), "): min distance ", scaled.min_distance_px,
              " px, LK window ", scaled.lk.window_px, " px, anchor half size ", scaled.anchor.half_size_px,
              " px, CLAHE ", scaled.clahe.tile_grid, "x", scaled.clahe.tile_grid, " tiles");
