@@ -89,6 +89,7 @@ void Visit(V& v, FrontendOptions* o) {
   v.Enum("selection", &o->selection, kFeatureSelectionNames);
   v.Field("candidate_factor", &o->candidate_factor);
   v.Field("detection_max_megapixels", &o->detection_max_megapixels);
+  v.Field("detect_missing_fraction", &o->detect_missing_fraction);
   v.Field("ransac_threshold_px", &o->ransac_threshold_px);
   v.Field("ransac_focal_px", &o->ransac_focal_px);
   v.Section("clahe", &o->clahe);

@@ -467,10 +467,10 @@ void CameraTracker::Impl::AddNewFeatures(const cv::Mat& input, const cv::Mat& im
                                          CameraFrameResult* result) const {
   const int wanted = max_features - result->stats.tracked;
   if (wanted <= 0) return;
-  if (IsLearnedDetector(options.detector) && result->stats.tracked > 0 &&
-      wanted < options.superpoint.detect_missing_fraction * static_cast<double>(max_features)) {
-    return;  // FrontendOptions::superpoint.detect_missing_fraction
-  }
+  // FrontendOptions::detect_missing_fraction, superpoint.detect_missing_fraction
+  const double missing_fraction = IsLearnedDetector(options.detector) ? options.superpoint.detect_missing_fraction
+                                                                      : options.detect_missing_fraction;
+  if (result->stats.tracked > 0 && wanted < missing_fraction * static_cast<double>(max_features)) return;
   auto start = Clock::now();
   const int cap = std::max(1, options.candidate_factor) * wanted;
   Detections detections = Detect(image, pyramid, cap);

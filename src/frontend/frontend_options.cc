@@ -19,6 +19,7 @@ void FrontendOptions::Check() const {
   CheckAtLeast("/frontend/pixel_scale_reference_px", pixel_scale_reference_px, 0.0);
   CheckAtLeast("/frontend/candidate_factor", candidate_factor, 1);
   CheckAtLeast("/frontend/detection_max_megapixels", detection_max_megapixels, 0.0);
+  CheckInRange("/frontend/detect_missing_fraction", detect_missing_fraction, 0.0, 1.0);
   CheckPositive("/frontend/ransac_threshold_px", ransac_threshold_px);
   CheckPositive("/frontend/ransac_focal_px", ransac_focal_px);
   CheckPositive("/frontend/clahe/clip_limit", clahe.clip_limit);

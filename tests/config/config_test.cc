@@ -67,6 +67,7 @@ TEST(Config, RoundTrip) {
   options.frontend.lk.window_px = 31;
   options.frontend.superpoint.confidence_threshold = 1.0 / 3.0;
   options.frontend.superpoint.detect_missing_fraction = 0.25;
+  options.frontend.detect_missing_fraction = 0.125;
   options.frontend.selection = FeatureSelection::kQuadtree;
   options.initializer.required_cameras = {"image_00", "image_02"};
   options.backend.loss = LossType::kHuber;
@@ -83,6 +84,7 @@ TEST(Config, RoundTrip) {
   EXPECT_EQ(read.frontend.detector, DetectorType::kSuperPoint);
   EXPECT_EQ(read.frontend.superpoint.confidence_threshold, 1.0 / 3.0);
   EXPECT_EQ(read.frontend.superpoint.detect_missing_fraction, 0.25);
+  EXPECT_EQ(read.frontend.detect_missing_fraction, 0.125);
   EXPECT_EQ(read.initializer.required_cameras, options.initializer.required_cameras);
   EXPECT_EQ(read.runtime.seed, 1234567890123LL);
   EXPECT_EQ(read.eval.rpe_length_percents, std::vector<double>{25.0});
@@ -161,6 +163,8 @@ TEST(Config, CheckFailuresNameTheField) {
             "c.json: /loop/min_score: must be in [0, 1], got 1.5");
   EXPECT_EQ(ErrorOf(R"({"frontend": {"superpoint": {"detect_missing_fraction": -0.1}}})"),
             "c.json: /frontend/superpoint/detect_missing_fraction: must be in [0, 1], got -0.1");
+  EXPECT_EQ(ErrorOf(R"({"frontend": {"detect_missing_fraction": 1.5}})"),
+            "c.json: /frontend/detect_missing_fraction: must be in [0, 1], got 1.5");
   EXPECT_EQ(
       ErrorOf(R"({"backend": {"max_solver_time_s": 0.04}})"),
       "c.json: /backend/max_solver_time_s: must be 0 when /runtime/deterministic is true (a wall-clock limit "

@@ -496,9 +496,12 @@ TEST(CrossCameraTest, LimitKeepsTheLongestTracks) {
 TEST(CrossCameraTest, FollowedMatchesBetweenFullFramesStayAccurate) {
   const RigSequence& seq = Stereo();
   FrontendOptions options;
+  options.detect_missing_fraction = 0.0;  // new features on every frame, to wait for frame 3
+  FrontendOptions every_frame = options;
+  every_frame.cross_camera.rematch_every = 1;
   options.cross_camera.rematch_every = 3;
   const std::vector<MultiCameraFrame> frames = TrackAll(seq, 2, options);
-  const std::vector<MultiCameraFrame> every = TrackAll(seq, 2);
+  const std::vector<MultiCameraFrame> every = TrackAll(seq, 2, every_frame);
   ASSERT_EQ(frames.size(), 4u);
   for (size_t f = 0; f < frames.size(); ++f) {
     const CrossCameraPairStats& s = frames[f].cross_pair_stats.at(0);

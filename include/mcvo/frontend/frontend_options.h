@@ -182,6 +182,13 @@ struct FrontendOptions {
   // LK pyramid's first level that is not (each level halves both sides);
   // the detections are scaled to full resolution. 0: always full resolution.
   double detection_max_megapixels = 1.0;
+  // Shi-Tomasi and ORB search a camera's image for new features only when at
+  // least this fraction of the camera's feature budget (max_features_*) is
+  // free, or the camera tracks nothing; on the frames between, the camera
+  // keeps what LK tracks. 0: every frame that lacks any feature. The learned
+  // detectors have their own rule (superpoint.detect_missing_fraction).
+  // 0.5 against 0: results/classic_detect_skip.md.
+  double detect_missing_fraction = 0.5;
   double ransac_threshold_px = 1.0;
   double ransac_focal_px = 460.0;  // virtual pinhole focal the threshold is expressed at
   ClaheOptions clahe;
