@@ -188,8 +188,9 @@ struct FrontendOptions {
   // keeps what LK tracks. 0: every frame that lacks any feature. The learned
   // detectors have their own rule (superpoint.detect_missing_fraction).
   // 0 by default: at 0.5 one tri_rear run lost its scale (0.11 -> 3.6 %,
-  // results/learned_detect_skip.md); config/kitti360_4cam.json sets 0.5,
-  // measured in results/classic_detect_skip.md.
+  // results/learned_detect_skip.md), and the 1.18 km route with the
+  // 4-camera KITTI-360 rig ended 1.25 x worse; at full resolution that rig
+  // ran 0.8 x the time and more accurately (results/classic_detect_skip.md).
   double detect_missing_fraction = 0.0;
   double ransac_threshold_px = 1.0;
   double ransac_focal_px = 460.0;  // virtual pinhole focal the threshold is expressed at
