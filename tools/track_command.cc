@@ -99,7 +99,8 @@ void AppendStatsRows(const MultiCameraFrame& frame, const Rig& rig, std::string*
     *csv += StrCat(frame.frame_index, ",", frame.t_ns, ",", rig.cameras[c].name, ",", s.tracked, ",",
                    s.new_features, ",", s.ransac_inliers, ",", s.ransac_outliers, ",",
                    FormatDouble(s.mean_track_length), ",", FormatDouble(s.sfd), ",", s.image_missing ? 1 : 0,
-                   ",", CountCrossCameraMatches(frame, static_cast<int>(c)), "\n");
+                   ",", CountCrossCameraMatches(frame, static_cast<int>(c)), ",", s.lost_lk, ",",
+                   s.lost_forward_backward, ",", s.lost_anchor, ",", s.untextured, "\n");
   }
 }
 
@@ -221,7 +222,7 @@ int RunTrack(int argc, const char* const* argv) {
   }
   std::string csv =
       "frame,t_ns,camera,tracked,new,ransac_inliers,ransac_outliers,mean_track_length,sfd,image_missing,"
-      "cross_matches\n";
+      "cross_matches,lost_lk,lost_forward_backward,lost_anchor,untextured\n";
 
   const int total_frames = max_frames > 0 ? std::min<int>(max_frames, static_cast<int>(index.frames.size()))
                                           : static_cast<int>(index.frames.size());

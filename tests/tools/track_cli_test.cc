@@ -10,8 +10,11 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <set>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -102,22 +105,34 @@ TEST(TrackCli, TracksASequence) {
 
   const std::string csv = mcvo::ReadFileToString(stats);
   EXPECT_EQ(csv.rfind("frame,t_ns,camera,tracked,new,ransac_inliers,ransac_outliers,mean_track_length,sfd,"
-                      "image_missing,cross_matches\n",
+                      "image_missing,cross_matches,lost_lk,lost_forward_backward,lost_anchor,untextured\n",
                       0),
             0u);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 4 * 2) << csv;
-  // cross_matches: camera 0's features found in camera 1, summed over the rows.
+  // cross_matches: camera 0's features found in camera 1, summed over the
+  // rows. Every feature of a camera's previous row is either tracked or
+  // counted by one of the reasons it was lost.
   size_t csv_cross_matches = 0;
+  std::map<std::string, long> previous_features;  // camera -> tracked + new of its last row
   size_t line_start = csv.find('\n') + 1;
   while (line_start < csv.size()) {
     const size_t line_end = csv.find('\n', line_start);
-    const std::string line = csv.substr(line_start, line_end - line_start);
-    const size_t last_comma = line.rfind(',');
-    const size_t value = std::stoul(line.substr(last_comma + 1));
-    if (line.find(",image_01,") != std::string::npos) {
-      EXPECT_EQ(value, 0u) << line;
+    std::vector<std::string> fields;
+    std::stringstream line(csv.substr(line_start, line_end - line_start));
+    for (std::string field; std::getline(line, field, ',');) fields.push_back(field);
+    ASSERT_EQ(fields.size(), 15u) << line.str();
+    const size_t value = std::stoul(fields[10]);
+    if (fields[2] == "image_01") {
+      EXPECT_EQ(value, 0u) << line.str();
     }
     csv_cross_matches += value;
+    const long tracked = std::stol(fields[3]), added = std::stol(fields[4]);
+    const long lost = std::stol(fields[6]) + std::stol(fields[11]) + std::stol(fields[12]) + std::stol(fields[13]);
+    const auto previous = previous_features.find(fields[2]);
+    if (previous != previous_features.end() && fields[9] == "0") {
+      EXPECT_EQ(tracked + lost, previous->second) << line.str();
+    }
+    previous_features[fields[2]] = tracked + added;
     line_start = line_end + 1;
   }
   EXPECT_EQ(csv_cross_matches, cross_matches);
