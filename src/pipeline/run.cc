@@ -162,7 +162,9 @@ std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetInde
 
 std::string PosingFailureCategory(const std::string& reason) {
   auto has = [&](const char* text) { return reason.find(text) != std::string::npos; };
-  if (has("parallax")) return "the rig never moved enough for the initializer (parallax too small)";
+  if (has("parallax")) {
+    return "too little parallax for the initializer (the rig stood or crept, or all it tracked was far)";
+  }
   if (has("pure translation") || has("not observable") || has("poorly observable"))
     return kScaleNeverObservable;
   if (has("rig pose failed") || has("tracking lost")) return "tracking lost";
