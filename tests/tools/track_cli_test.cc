@@ -127,7 +127,8 @@ TEST(TrackCli, TracksASequence) {
     }
     csv_cross_matches += value;
     const long tracked = std::stol(fields[3]), added = std::stol(fields[4]);
-    const long lost = std::stol(fields[6]) + std::stol(fields[11]) + std::stol(fields[12]) + std::stol(fields[13]);
+    const long lost =  // ransac_outliers, lost_lk, lost_forward_backward, lost_anchor
+        std::stol(fields[6]) + std::stol(fields[11]) + std::stol(fields[12]) + std::stol(fields[13]);
     const auto previous = previous_features.find(fields[2]);
     if (previous != previous_features.end() && fields[9] == "0") {
       EXPECT_EQ(tracked + lost, previous->second) << line.str();
