@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -588,29 +587,6 @@ TEST(ReprojectionFactor, NullJacobianBlocksAreSkipped) {
         }
       }
     }
-  }
-}
-
-TEST(ReprojectionFactor, EvaluationSpeed) {
-  // Informational (no bound: the machine may be loaded): residual and
-  // Jacobians per evaluation for the other-camera kind.
-  std::mt19937 rng(34);
-  const LandmarkCase s = RandomCase(Kind::kOtherCamera, &rng);
-  constexpr int kEvaluations = 20000;
-  for (Variant variant : kVariants) {
-    const Factor f = MakeFactor(Kind::kOtherCamera, s, variant);
-    Evaluation e = EvaluateWithJacobians(*f.cost, f.params);
-    std::vector<double*> ptrs;
-    for (RowMajor& j : e.jacobians) ptrs.push_back(j.data());
-    double sum = 0.0;
-    const auto start = std::chrono::steady_clock::now();
-    for (int k = 0; k < kEvaluations; ++k) {
-      f.cost->Evaluate(f.params.data(), e.residual.data(), ptrs.data());
-      sum += e.residual[0];
-    }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    std::printf("other camera, %s: %.3f us per evaluation with Jacobians (checksum %.3g)\n",
-                VariantName(variant), 1e6 * seconds / kEvaluations, sum);
   }
 }
 
