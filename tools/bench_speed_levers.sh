@@ -60,19 +60,8 @@ render() {  # name synth-args... -> prints the sequence folder
   echo "$seq"
 }
 
-seconds_of() {  # command... -> "wall cpu" seconds of the command and its threads (output to SCRATCH/last.log)
-  python3 - "$SCRATCH/last.log" "$@" <<'PY' || { cat "$SCRATCH/last.log" >&2; return 1; }
-import resource, subprocess, sys, time
-log, cmd = sys.argv[1], sys.argv[2:]
-start = time.monotonic()
-with open(log, "w") as out:
-    rc = subprocess.call(cmd, stdout=out, stderr=subprocess.STDOUT)
-wall = time.monotonic() - start
-usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-print(f"{wall:.3f} {usage.ru_utime + usage.ru_stime:.3f}")
-sys.exit(rc)
-PY
-}
+# shellcheck source=tools/bench_common.sh
+source tools/bench_common.sh  # seconds_of
 
 write_config() {  # step-index out.json
   local edits="" i

@@ -51,20 +51,8 @@ render() {  # scale -> prints the sequence folder
   echo "$seq"
 }
 
-seconds_of() {  # command... -> "wall cpu" seconds on stdout (cpu: user + system of the command and its
-                # threads; the command's output to SCRATCH/last.log)
-  python3 - "$SCRATCH/last.log" "$@" <<'PY' || { cat "$SCRATCH/last.log" >&2; return 1; }
-import resource, subprocess, sys, time
-log, cmd = sys.argv[1], sys.argv[2:]
-start = time.monotonic()
-with open(log, "w") as out:
-    rc = subprocess.call(cmd, stdout=out, stderr=subprocess.STDOUT)
-wall = time.monotonic() - start
-usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-print(f"{wall:.3f} {usage.ru_utime + usage.ru_stime:.3f}")
-sys.exit(rc)
-PY
-}
+# shellcheck source=tools/bench_common.sh
+source tools/bench_common.sh  # seconds_of
 
 cameras_of() {  # config -> comma-separated camera list
   python3 -c "import json,sys; print(','.join(json.load(open(sys.argv[1]))['dataset']['cameras']))" "$1"
