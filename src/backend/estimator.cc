@@ -103,7 +103,8 @@ struct Estimator::Impl {
   }
 
   // Step 5: parallax to the last keyframe after rotation compensation, or
-  // too few tracked landmarks in a camera.
+  // too few tracked landmarks in a camera, or too few triangulated ones
+  // tracked over the rig.
   bool IsKeyframe(const WindowFrame& newest) const {
     const WindowFrame* last_keyframe = nullptr;
     for (auto it = window.frames().rbegin(); it != window.frames().rend(); ++it) {
@@ -115,13 +116,31 @@ struct Estimator::Impl {
     if (last_keyframe == nullptr) return true;
     const auto& landmarks = window.landmarks();
     // Tracked landmarks per camera.
+    int cameras_tracking = 0;  // cameras with at least keyframe_min_tracked features
+    int usable_total = 0;
     for (int c = 0; c < static_cast<int>(newest.obs.cameras.size()); ++c) {
       const auto& features = newest.obs.cameras[c];
-      if (static_cast<int>(features.size()) < options.keyframe_min_tracked) continue;
+      if (static_cast<int>(features.size()) >= options.keyframe_min_tracked) ++cameras_tracking;
       int tracked = 0;
-      for (const FeatureObservation& f : features) tracked += landmarks.count(f.id) != 0 ? 1 : 0;
-      if (tracked < options.keyframe_min_tracked) return true;
+      for (const FeatureObservation& f : features) {
+        auto it = landmarks.find(f.id);
+        if (it == landmarks.end()) continue;
+        ++tracked;
+        usable_total += window.UsableInBa(it->second) ? 1 : 0;
+      }
+      if (static_cast<int>(features.size()) >= options.keyframe_min_tracked &&
+          tracked < options.keyframe_min_tracked)
+        return true;
     }
+    // Too few triangulated landmarks tracked over the rig (per camera that
+    // tracks enough features) for the PnP of the next frames. Far points
+    // under slow motion stay at their initial depth for tens of frames;
+    // counted above as tracked, they let a forward stereo pair in open
+    // country run out of usable ones with no keyframe to make new ones from
+    // its cross-camera matches, and lose track. Summed over the rig, so that
+    // one camera facing far scenery does not make every frame a keyframe
+    // while the others hold the pose (results/keyframe_usable_landmarks.md).
+    if (usable_total < options.keyframe_min_tracked * cameras_tracking) return true;
     // Rotation-compensated parallax against the last keyframe.
     double sum = 0.0;
     int count = 0;
@@ -480,8 +499,8 @@ Estimator::~Estimator() = default;
 FrameEstimate Estimator::AddFrame(const RigFrameObservations& frame) { return impl_->AddFrame(frame); }
 
 FrameEstimate Estimator::StartFromPoses(const std::vector<RigFrameObservations>& frames,
-                                        const std::vector<Rigid3d>& world_from_rig, double relative_scale_sigma,
-                                        const std::string& note) {
+                                        const std::vector<Rigid3d>& world_from_rig,
+                                        double relative_scale_sigma, const std::string& note) {
   return impl_->StartFromPoses(frames, world_from_rig, relative_scale_sigma, note);
 }
 
@@ -507,7 +526,8 @@ double Estimator::SmallestRejectedScaleSigma() const {
 
 std::vector<int> Estimator::PendingFrames() const {
   std::vector<int> frames;
-  for (const backend_internal::WindowFrame* frame : impl_->window.frames()) frames.push_back(frame->frame_index);
+  for (const backend_internal::WindowFrame* frame : impl_->window.frames())
+    frames.push_back(frame->frame_index);
   for (const RigFrameObservations& frame : impl_->init_buffer) frames.push_back(frame.frame_index);
   std::sort(frames.begin(), frames.end());
   frames.erase(std::unique(frames.begin(), frames.end()), frames.end());

@@ -28,7 +28,8 @@ struct BackendOptions {
   double init_depth_m = 5.0;           // depth of a new landmark that cannot be triangulated yet
   int min_observations = 2;            // landmarks seen fewer times are not optimised
   double keyframe_parallax_px = 10.0;  // mean parallax to the last keyframe, at virtual_focal_px
-  int keyframe_min_tracked = 20;       // fewer tracked landmarks in a camera: keyframe
+  int keyframe_min_tracked = 20;       // fewer tracked landmarks in a camera, or fewer triangulated
+                                       // ones per tracking camera over the rig: keyframe
   double outlier_threshold_px = 3.0;   // observations above this after BA are removed
   double pnp_threshold_px = 2.0;       // rig absolute pose inlier threshold, at virtual_focal_px
   int min_pnp_inliers = 8;  // fewer over all cameras: tracking is lost (a 6-DoF pose, RANSAC inliers)
