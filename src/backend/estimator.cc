@@ -120,7 +120,8 @@ struct Estimator::Impl {
     int usable_total = 0;
     for (int c = 0; c < static_cast<int>(newest.obs.cameras.size()); ++c) {
       const auto& features = newest.obs.cameras[c];
-      if (static_cast<int>(features.size()) >= options.keyframe_min_tracked) ++cameras_tracking;
+      const bool tracking = static_cast<int>(features.size()) >= options.keyframe_min_tracked;
+      cameras_tracking += tracking ? 1 : 0;
       int tracked = 0;
       for (const FeatureObservation& f : features) {
         auto it = landmarks.find(f.id);
@@ -128,9 +129,7 @@ struct Estimator::Impl {
         ++tracked;
         usable_total += window.UsableInBa(it->second) ? 1 : 0;
       }
-      if (static_cast<int>(features.size()) >= options.keyframe_min_tracked &&
-          tracked < options.keyframe_min_tracked)
-        return true;
+      if (tracking && tracked < options.keyframe_min_tracked) return true;
     }
     // Too few triangulated landmarks tracked over the rig (per camera that
     // tracks enough features) for the PnP of the next frames. Far points
