@@ -17,6 +17,7 @@
 #include "mcvo/pipeline/run_manifest.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/output_folder.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/strings.h"
 
@@ -75,6 +76,7 @@ int RunEval(int argc, const char* const* argv) {
   std::string gt_path, est_path, gt_format = "auto", est_format = "auto", align = "auto", associate = "auto";
   std::string rpe_lengths, rpe_percents, gt_times, est_times, out_dir;
   int align_frames = 0;
+  bool force = false;
   double max_dt = AssociationOptions().max_dt_s;
 
   ArgParser args("mcvo eval",
@@ -101,6 +103,7 @@ int RunEval(int argc, const char* const* argv) {
   args.AddString("est-times", &est_times, "FILE", "times file for a KITTI estimate");
   args.AddString("out", &out_dir, "DIR",
                  "write eval.json, eval.md, ate_errors.csv, est_aligned.tum, report.html, report.md there");
+  args.AddFlag("force", &force, "replace a non-empty --out folder that an earlier mcvo eval wrote");
   args.AddEpilog(
       "Prints a Markdown summary on stdout. Definitions and every JSON key: docs/eval.md.\n"
       "example: mcvo eval --gt poses.txt --est est.txt --rpe-lengths 100,200,300,400,500,600,700,800 --out "
@@ -166,7 +169,13 @@ int RunEval(int argc, const char* const* argv) {
 
   const EvalResult result = EvaluateTrajectory(gt, est, options, gt_path, est_path);
   if (!out_dir.empty()) {
-    WriteEvalOutputs(out_dir, result);
+    // The output folder discipline of every command (util/output_folder.h).
+    OutputFolderOptions out_options;
+    out_options.force = force;
+    out_options.kind = "eval";
+    out_options.inputs = {gt_path, est_path, gt_times, est_times};
+    OutputFolder out(out_dir, out_options);
+    WriteEvalOutputs(out.staging(), result);
     // report.html / report.md: the same result with plots; the eval options
     // come from the result itself, the files and formats from here.
     ReportInputs report;
@@ -180,7 +189,8 @@ int RunEval(int argc, const char* const* argv) {
     report.settings["est"] = est_path;
     report.settings["est_format"] = std::string(TrajectoryFormatName(est_file_format));
     if (!est_times.empty()) report.settings["est_times"] = est_times;
-    WriteReports(out_dir, report);
+    WriteReports(out.staging(), report);
+    out.Commit();
   }
   std::cout << EvalResultToMarkdown(result);
   return kExitOk;

@@ -7,6 +7,7 @@
 
 #include "command.h"
 #include "mcvo/util/blas.h"
+#include "mcvo/util/cancel.h"
 #include "mcvo/util/error.h"
 
 namespace mcvo::tools {
@@ -51,8 +52,12 @@ int main(int argc, char** argv) {
     std::cerr << "mcvo: unknown command '" << argv[1] << "' (see mcvo --help)\n";
     return kExitUsage;
   }
+  InstallCancelHandlers();
   try {
     return it->second.run(argc - 2, argv + 2);
+  } catch (const Cancelled& e) {
+    std::cerr << "mcvo " << argv[1] << ": " << e.what() << "\n";
+    return 128 + e.signal_number();
   } catch (const UsageError& e) {
     std::cerr << "mcvo " << argv[1] << ": usage error: " << e.what() << "\n";
     return kExitUsage;
@@ -60,6 +65,11 @@ int main(int argc, char** argv) {
     std::cerr << "mcvo " << argv[1] << ": error: " << e.what() << "\n";
     return kExitBadInput;
   } catch (const std::exception& e) {
+    if (const int signal_number = CancelSignal(); signal_number != 0) {
+      // An error on the way out of a cancelled command (a read interrupted by the signal).
+      std::cerr << "mcvo " << argv[1] << ": " << Cancelled(signal_number).what() << "\n";
+      return 128 + signal_number;
+    }
     std::cerr << "mcvo " << argv[1] << ": internal error: " << e.what() << "\n";
     return kExitInternal;
   }

@@ -49,6 +49,7 @@ int RunRun(int argc, const char* const* argv) {
   RunRequest request;
   request.options = config_path.empty() ? PipelineOptions() : ReadPipelineOptions(config_path);
   request.config_source = config_path.empty() ? "built-in defaults" : config_path;
+  request.config_path = config_path;
   if (!detector_name.empty()) {
     const std::optional<DetectorType> detector = EnumFromName(kDetectorTypeNames, detector_name);
     if (!detector) {

@@ -27,7 +27,9 @@
 #include "mcvo/pipeline/frame_source.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/cancel.h"
 #include "mcvo/util/file.h"
+#include "mcvo/util/output_folder.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/progress.h"
@@ -193,6 +195,12 @@ int RunTrack(int argc, const char* const* argv) {
   DatasetOptions dataset_options = MakeDatasetOptions(dataset);
   if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
   const DatasetIndex index = OpenDataset(dataset_options);
+  // Never written over or inside an input (util/output_folder.h).
+  const std::vector<std::filesystem::path> inputs = {dataset_options.root, index.root, config_path,
+                                                     options.frontend.model_path};
+  CheckOutputFile(out_path, inputs, "--out");
+  if (!stats_path.empty()) CheckOutputFile(stats_path, inputs, "--stats");
+  if (!timing_path.empty()) CheckOutputFile(timing_path, inputs, "--timing");
   // Start-up: the frame source builds each camera's detector (model file
   // and layout checked here), before any image is decoded. It is `mcvo
   // run`'s: the frontend on a producer thread ahead of this one, which
@@ -241,6 +249,7 @@ int RunTrack(int argc, const char* const* argv) {
   const Clock::time_point run_start = Clock::now();
   source.Start(total_frames);
   while (std::optional<FrontendItem> item = source.Next()) {
+    ThrowIfCancelled();
     const Clock::time_point start = Clock::now();
     writer.Write(item->frame);
     AppendStatsRows(item->frame, index.rig, &csv);

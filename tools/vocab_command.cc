@@ -31,6 +31,7 @@
 #include "mcvo/loop/vocabulary.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/output_folder.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/progress.h"
@@ -221,6 +222,11 @@ int RunTrain(int argc, const char* const* argv) {
   std::vector<Extractor> extractors;
   for (int i = 0; i < std::max(1, std::min(threads, max_cameras)); ++i)
     extractors.emplace_back(frontend, a.features);
+  // Never written over or inside an input (util/output_folder.h).
+  std::vector<fs::path> inputs(roots.begin(), roots.end());
+  inputs.emplace_back(a.model);
+  for (const DatasetIndex& index : indices) inputs.push_back(index.root);
+  CheckOutputFile(a.out, inputs, "--out");
   // The output folder must exist (the file itself is written at the end).
   const fs::path out_dir = fs::path(a.out).parent_path();
   if (!out_dir.empty() && !fs::is_directory(out_dir)) {

@@ -19,7 +19,9 @@
 #include "mcvo/pipeline/run_manifest.h"
 #include "mcvo/util/blas.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/cancel.h"
 #include "mcvo/util/file.h"
+#include "mcvo/util/output_folder.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/sha256.h"
@@ -218,11 +220,13 @@ BatchRunResult ExecuteRun(const BatchRunSpec& spec, const BatchOptions& options,
     if (fs::exists(run_dir, ec) && !fs::is_directory(run_dir, ec)) {
       MCVO_THROW_INPUT(run_dir.string(), ": exists and is not a folder");
     }
+    if (fs::is_directory(run_dir, ec) && !fs::is_empty(run_dir, ec) &&
+        !fs::is_regular_file(fs::symlink_status(run_dir / kOutputMarkerName, ec))) {
+      // Not a folder mcvo wrote (util/output_folder.h): never replaced, with --force or without.
+      MCVO_THROW_INPUT(run_dir.string(), ": folder exists, is not empty and holds no ", kOutputMarkerName,
+                       " marker: mcvo replaces only folders it wrote (move it away or rename the run)");
+    }
     if (!options.force && fs::is_directory(run_dir, ec) && !fs::is_empty(run_dir, ec)) {
-      if (!fs::is_regular_file(run_dir / "run.json", ec)) {
-        MCVO_THROW_INPUT(run_dir.string(),
-                         ": folder exists and holds no finished run (use --force to replace it)");
-      }
       const std::optional<std::string> reason = RunOutOfDateReason(run_dir, spec, pipeline);
       if (!reason) {
         result.status = BatchRunStatus::kSkipped;
@@ -237,15 +241,18 @@ BatchRunResult ExecuteRun(const BatchRunSpec& spec, const BatchOptions& options,
     request.dataset = spec.dataset;
     request.tracks = spec.tracks;
     request.out_dir = run_dir;
-    request.force = true;  // the folder is empty, a run of ours, or --force was given
+    request.force = true;  // the folder is empty or a run of ours (its marker, checked again by the run)
     request.options = pipeline;
     request.config_source = spec.config.empty() ? "built-in defaults" : spec.config.string();
+    request.config_path = spec.config;
     request.max_frames = spec.max_frames;
     request.command_line = command_line;
     request.version = options.version;
     RunPipeline(request);
     result.status = BatchRunStatus::kOk;
     ReadRunNumbers(run_dir, &result);
+  } catch (const Cancelled&) {
+    throw;  // the whole batch stops (util/cancel.h)
   } catch (const std::exception& e) {
     result = BatchRunResult();
     result.name = spec.name;

@@ -1,10 +1,11 @@
 #include "mcvo/pipeline/run.h"
 
-#include <unistd.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <chrono>
 #include <map>
+#include <set>
 #include <optional>
 #include <string>
 #include <utility>
@@ -20,6 +21,8 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/output_folder.h"
+#include "mcvo/util/cancel.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/progress.h"
 #include "mcvo/util/sha256.h"
@@ -36,17 +39,6 @@ using Clock = std::chrono::steady_clock;
 
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-void CheckOutputFolder(const std::filesystem::path& out_dir, bool force) {
-  std::error_code ec;
-  if (std::filesystem::exists(out_dir, ec)) {
-    if (!std::filesystem::is_directory(out_dir, ec))
-      MCVO_THROW_INPUT(out_dir.string(), ": exists and is not a folder");
-    if (!std::filesystem::is_empty(out_dir, ec) && !force) {
-      MCVO_THROW_INPUT(out_dir.string(), ": folder exists and is not empty (use --force to replace it)");
-    }
-  }
 }
 
 // A one-camera rig runs monocular, at an arbitrary scale (estimator.h
@@ -115,6 +107,76 @@ void LogRunSummary(const RunSummary& summary, const std::filesystem::path& out_d
   MCVO_LOG(kInfo, "run: wrote ", out_dir.string());
 }
 
+// Every file and folder the run reads, for the output folder's check that
+// --out is, contains or lies inside none of them: the dataset folder, the
+// folders of its images (a frames.csv may list them anywhere), its masks,
+// the config, the track file, the vocabulary and the detector's model.
+std::vector<std::filesystem::path> RunInputPaths(const RunRequest& request, const DatasetIndex& index,
+                                                 const std::filesystem::path& vocabulary) {
+  std::vector<std::filesystem::path> inputs = {request.dataset.root, index.root, request.config_path,
+                                               request.tracks, vocabulary,
+                                               std::filesystem::path(request.options.frontend.model_path)};
+  std::set<std::filesystem::path> folders;
+  for (const DatasetFrame& frame : index.frames) {
+    for (const std::filesystem::path& image : frame.images) {
+      if (!image.empty()) folders.insert(image.parent_path());
+    }
+  }
+  inputs.insert(inputs.end(), folders.begin(), folders.end());
+  for (const Camera& camera : index.rig.cameras) inputs.emplace_back(camera.mask_path);
+  return inputs;
+}
+
+// Size and modification time of the files a run reads while it runs (the
+// images of its frames, the track file), taken when they are hashed, before
+// the run reads them, and compared after: a file changed in between is not
+// what run.json's hash says was processed.
+struct FileStamp {
+  std::filesystem::path path;
+  off_t size = -1;
+  int64_t mtime_ns = -1;
+  bool operator==(const FileStamp& other) const {
+    return path == other.path && size == other.size && mtime_ns == other.mtime_ns;
+  }
+};
+
+std::vector<FileStamp> StampRunFiles(const DatasetIndex& index, const std::filesystem::path& tracks, int frames) {
+  std::vector<FileStamp> stamps;
+  auto add = [&](const std::filesystem::path& path) {
+    FileStamp stamp;
+    stamp.path = path;
+    struct stat info {};
+    if (::stat(path.c_str(), &info) == 0) {
+      stamp.size = info.st_size;
+      stamp.mtime_ns = static_cast<int64_t>(info.st_mtim.tv_sec) * 1000000000 + info.st_mtim.tv_nsec;
+    }
+    stamps.push_back(stamp);
+  };
+  if (!tracks.empty()) {
+    add(tracks);
+    return stamps;
+  }
+  const int n = std::min(frames, static_cast<int>(index.frames.size()));
+  for (int f = 0; f < n; ++f) {
+    for (const std::filesystem::path& path : index.frames[f].images) {
+      if (!path.empty()) add(path);
+    }
+  }
+  return stamps;
+}
+
+void CheckRunFilesUnchanged(const std::vector<FileStamp>& before, const DatasetIndex& index,
+                            const std::filesystem::path& tracks, int frames) {
+  const std::vector<FileStamp> after = StampRunFiles(index, tracks, frames);
+  for (size_t i = 0; i < before.size() && i < after.size(); ++i) {
+    if (!(before[i] == after[i])) {
+      MCVO_THROW_INPUT(before[i].path.string(),
+                       ": changed while the run read it (size or modification time); nothing was written, "
+                       "run again on a dataset that stays as it is");
+    }
+  }
+}
+
 }  // namespace
 
 DatasetIndex OpenRunDataset(const DatasetOptions& options) {
@@ -156,8 +218,39 @@ std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetInde
     }
     inputs.emplace_back("images_sha256", images.HexDigest());
   }
+  inputs.emplace_back("dataset_sha256", HashDatasetContent(index, frames));
   if (!vocabulary.empty()) inputs.emplace_back("vocabulary_sha256", Sha256File(vocabulary));
   return inputs;
+}
+
+std::string HashDatasetContent(const DatasetIndex& index, int frames) {
+  Sha256 hash;
+  const int n = std::min(frames, static_cast<int>(index.frames.size()));
+  hash.Update(StrCat("frames ", n, "\n"));
+  for (int f = 0; f < n; ++f) {
+    std::string line = std::to_string(index.frames[f].t_ns);
+    for (const std::filesystem::path& path : index.frames[f].images) line += path.empty() ? " -" : " +";
+    hash.Update(line + "\n");
+  }
+  if (index.ground_truth) {
+    const Trajectory& gt = *index.ground_truth;
+    hash.Update(StrCat("ground truth ", gt.poses.size(), " ", gt.has_time, " ", gt.has_frame_index, "\n"));
+    for (const StampedPose& pose : gt.poses) {
+      const Eigen::Quaterniond& q = pose.world_from_body.rotation;
+      const Eigen::Vector3d& t = pose.world_from_body.translation;
+      hash.Update(StrCat(pose.t_ns, " ", pose.frame_index, " ", FormatDouble(t.x()), " ", FormatDouble(t.y()), " ",
+                         FormatDouble(t.z()), " ", FormatDouble(q.x()), " ", FormatDouble(q.y()), " ",
+                         FormatDouble(q.z()), " ", FormatDouble(q.w()), "\n"));
+    }
+  }
+  for (size_t c = 0; c < index.masks.size(); ++c) {
+    const cv::Mat& mask = index.masks[c];
+    hash.Update(StrCat("mask ", c, " ", mask.cols, "x", mask.rows, " ", mask.type(), "\n"));
+    for (int row = 0; row < mask.rows; ++row) {
+      hash.Update(std::string_view(reinterpret_cast<const char*>(mask.ptr(row)), mask.cols * mask.elemSize()));
+    }
+  }
+  return hash.HexDigest();
 }
 
 std::string PosingFailureCategory(const std::string& reason) {
@@ -205,7 +298,6 @@ std::string RunPosingWarning(int frames, int posed, const std::vector<std::strin
 RunSummary RunPipeline(const RunRequest& request) {
   const PipelineOptions& options = request.options;
   options.Check();
-  CheckOutputFolder(request.out_dir, request.force);
   DatasetOptions dataset_options = request.dataset;
   if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
   const DatasetIndex index = OpenRunDataset(dataset_options);
@@ -218,13 +310,22 @@ RunSummary RunPipeline(const RunRequest& request) {
                        "\" is not in the rig of ", index.root.string());
     }
   }
+  const std::filesystem::path vocabulary_path = RunVocabularyPath(options);
+  // The output folder (util/output_folder.h): checked against the inputs,
+  // locked, written in a staging folder that moves into place when complete.
+  OutputFolderOptions out_options;
+  out_options.force = request.force;
+  out_options.kind = "run";
+  out_options.inputs = RunInputPaths(request, index, vocabulary_path);
+  OutputFolder out(request.out_dir, out_options);
+  const std::filesystem::path& absolute_out = out.path();
+
   // Frame source and vocabulary, set up before anything is decoded so that a
   // bad model, a mismatched track file or a bad vocabulary fail at start-up.
   // Loop closure describes the keyframes from the frontend's decode when it
   // tracks images (loop_image_cache.h).
   const bool keep_images = options.loop.enabled && request.tracks.empty();
   FrameSource source(index, options.frontend, request.tracks, threads, keep_images);
-  const std::filesystem::path vocabulary_path = RunVocabularyPath(options);
   std::optional<Vocabulary> vocabulary;
   std::optional<pipeline_internal::RunLoopStage> loop_stage;
   if (options.loop.enabled) {
@@ -232,22 +333,14 @@ RunSummary RunPipeline(const RunRequest& request) {
     loop_stage.emplace(index, *vocabulary, options, keep_images, threads);
   }
 
-  // Staging folder, renamed onto out_dir when everything is written.
-  const std::filesystem::path absolute_out = std::filesystem::absolute(request.out_dir).lexically_normal();
-  TemporaryFolder staging(absolute_out.parent_path() /
-                          (absolute_out.filename().string() + ".tmp-" + std::to_string(::getpid())));
-  std::error_code ec;
-  try {
-    CreateDirectories(absolute_out.parent_path());
-    std::filesystem::remove_all(staging.path(), ec);
-    CreateDirectories(staging.path());
-  } catch (const InputError& e) {
-    MCVO_THROW_INPUT(request.out_dir.string(), ": cannot create the output folder (", e.what(), ")");
-  }
-
   const int total_frames = request.max_frames > 0
                                ? std::min<int>(request.max_frames, static_cast<int>(index.frames.size()))
                                : static_cast<int>(index.frames.size());
+  // The inputs as run.json records them, hashed before anything reads them.
+  const std::vector<std::pair<std::string, std::string>> input_hashes =
+      HashRunInputs(index, request.tracks, total_frames, vocabulary_path, threads);
+  const std::vector<FileStamp> input_stamps = StampRunFiles(index, request.tracks, total_frames);
+  ThrowIfCancelled();
   for (const std::string& line : index.log) MCVO_LOG(kInfo, "dataset: ", line);
   MCVO_LOG(kInfo, "run: ", index.name, " (", index.format, "), ", total_frames, " frames, ", rig.NumCameras(),
            " cameras, ", request.tracks.empty() ? "tracking images" : "replaying " + request.tracks.string(),
@@ -269,6 +362,7 @@ RunSummary RunPipeline(const RunRequest& request) {
     }
     ++summary.frames;
     progress.Update(summary.frames);
+    ThrowIfCancelled();
   }
   progress.Finish();
   pipeline_internal::OdometryOutput odometry = odometry_stage.Finish();
@@ -290,6 +384,7 @@ RunSummary RunPipeline(const RunRequest& request) {
         pipeline_internal::RelocaliseSegments(posed, *vocabulary, options.loop, threads, &odometry);
   }
   const double odometry_seconds = SecondsSince(run_start);
+  ThrowIfCancelled();
 
   // Loop closure, then every pose and landmark moved with its keyframe's correction.
   pipeline_internal::LoopOutcome loops;
@@ -300,12 +395,14 @@ RunSummary RunPipeline(const RunRequest& request) {
     before_loops = pipeline_internal::ApplyLoopCorrection(loops, &odometry);
   }
   summary.loops_accepted = loops.accepted;
+  ThrowIfCancelled();
   int map_observations_dropped = 0;
   SparseMap map = pipeline_internal::BuildSparseMap(posed, odometry.keyframes, odometry.landmarks,
                                                     options.backend, &map_observations_dropped);
   // Global refinement: one rig bundle adjustment over the whole map.
   const pipeline_internal::RefineOutcome refine = pipeline_internal::RefineGlobally(
       posed.rig, options.refine, &loops, options.loop.pose_graph, summary.scale_arbitrary, &map, &odometry);
+  ThrowIfCancelled();
   summary.seconds = SecondsSince(run_start);
   summary.frames_per_second = summary.seconds > 0 ? summary.frames / summary.seconds : 0.0;
   summary.posed_frames = static_cast<int>(odometry.poses.size());
@@ -338,12 +435,11 @@ RunSummary RunPipeline(const RunRequest& request) {
   outputs.map_observations_dropped = map_observations_dropped;
   outputs.odometry_seconds = odometry_seconds;
   if (request.tracks.empty()) outputs.frontend_stages = &frontend_stages;
-  pipeline_internal::WriteRunOutputs(outputs, staging.path(), &summary);
-  if (std::filesystem::exists(absolute_out, ec)) std::filesystem::remove_all(absolute_out, ec);
-  std::filesystem::rename(staging.path(), absolute_out, ec);
-  if (ec)
-    MCVO_THROW_INPUT(absolute_out.string(), ": cannot move the finished run into place: ", ec.message());
-  staging.Release();
+  outputs.inputs = &input_hashes;
+  pipeline_internal::WriteRunOutputs(outputs, out.staging(), &summary);
+  CheckRunFilesUnchanged(input_stamps, index, request.tracks, total_frames);
+  ThrowIfCancelled();
+  out.Commit();
 
   LogRunSummary(summary, absolute_out);
   return summary;

@@ -20,6 +20,7 @@
 #include "mcvo/util/blas.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
+#include "mcvo/util/output_folder.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/sha256.h"
 #include "mcvo/util/strings.h"
@@ -271,6 +272,9 @@ Json OutputsSha256(const std::filesystem::path& dir) {
       it.disable_recursion_pending();
       continue;
     }
+    // The staging and output markers (util/output_folder.h) are the folder's, not outputs.
+    const std::string name = it->path().filename().string();
+    if (it.depth() == 0 && (name == kOutputMarkerName || name == kStagingMarkerName)) continue;
     if (!it->is_symlink() && it->is_regular_file()) files.push_back(it->path());
   }
   std::sort(files.begin(), files.end());
@@ -568,11 +572,8 @@ void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir
   run.dataset.name = index.name;
   run.dataset.frames = in.total_frames;
   for (const Camera& camera : rig.cameras) run.dataset.cameras.push_back(camera.name);
-  const DatasetIndex& opened = in.opened != nullptr ? *in.opened : index;
-  for (const auto& [key, hash] :
-       HashRunInputs(opened, request.tracks, in.total_frames, in.vocabulary_path, in.threads)) {
-    run.inputs[key] = hash;
-  }
+  MCVO_CHECK(in.inputs != nullptr);
+  for (const auto& [key, hash] : *in.inputs) run.inputs[key] = hash;
   const Json outputs = OutputsSha256(dir);
   for (const auto& item : outputs.items()) run.outputs_sha256[item.key()] = item.value().get<std::string>();
   run.result = ResultJson(in, *summary, evals);

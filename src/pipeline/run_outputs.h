@@ -51,6 +51,9 @@ struct RunOutputsInput {
   double odometry_seconds = 0.0;
   // The frontend's stages when images were tracked (null for a track file).
   const FrontendStageSeconds* frontend_stages = nullptr;
+  // run.json's "inputs" (HashRunInputs of `opened`), hashed before the run
+  // read anything.
+  const std::vector<std::pair<std::string, std::string>>* inputs = nullptr;
 };
 
 // Writes every output into `dir` and sets summary's evaluation fields

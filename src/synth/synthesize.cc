@@ -24,7 +24,9 @@
 #include "mcvo/synth/scene.h"
 #include "mcvo/synth/trajectory.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/cancel.h"
 #include "mcvo/util/file.h"
+#include "mcvo/util/output_folder.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::synth {
@@ -269,14 +271,6 @@ void SynthOptions::Check() const {
 SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path& out_dir,
                         const std::function<void(int, int)>& progress) {
   options.Check();
-  std::error_code ec;
-  if (std::filesystem::exists(out_dir, ec)) {
-    if (!std::filesystem::is_directory(out_dir, ec))
-      MCVO_THROW_INPUT(out_dir.string(), ": exists and is not a folder");
-    if (!std::filesystem::is_empty(out_dir, ec) && !options.force) {
-      MCVO_THROW_INPUT(out_dir.string(), ": folder exists and is not empty (use --force to replace it)");
-    }
-  }
   const std::string scene_name = options.scene.empty() ? FindPreset(options.preset).scene : options.scene;
   Rig rig = ResolveRig(options);
   if (options.render.effects.blackout_camera >= rig.NumCameras()) {
@@ -309,22 +303,23 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
   }
   const int frames = options.frames > 0 ? options.frames : std::max(1, static_cast<int>(frames_in_laps));
 
-  // Everything is written below `staging` and renamed onto out_dir at the end.
-  const std::filesystem::path absolute_out = std::filesystem::absolute(out_dir).lexically_normal();
-  const std::filesystem::path parent = absolute_out.parent_path();
-  CreateDirectories(parent);
-  TemporaryFolder staging(parent / (absolute_out.filename().string() + ".tmp-" + std::to_string(::getpid())));
-  std::filesystem::remove_all(staging.path(), ec);
-  CreateDirectories(staging.path() / "structure");
+  // Everything is written below the staging folder and moved onto out_dir
+  // at the end (util/output_folder.h).
+  OutputFolderOptions out_options;
+  out_options.force = options.force;
+  out_options.kind = "synth";
+  if (!options.rig_path.empty()) out_options.inputs.push_back(options.rig_path);
+  OutputFolder out(out_dir, out_options);
+  CreateDirectories(out.staging() / "structure");
 
   FrameTable table;
   for (Camera& camera : rig.cameras) {
     table.camera_names.push_back(camera.name);
-    CreateDirectories(staging.path() / "images" / camera.name);
+    CreateDirectories(out.staging() / "images" / camera.name);
     const cv::Mat mask = ValidPixelMask(camera);
     if (!mask.empty()) {
-      CreateDirectories(staging.path() / "masks");
-      camera.mask_path = (staging.path() / "masks" / (camera.name + ".png")).string();
+      CreateDirectories(out.staging() / "masks");
+      camera.mask_path = (out.staging() / "masks" / (camera.name + ".png")).string();
       WritePng(camera.mask_path, mask);
     }
   }
@@ -359,7 +354,7 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
     for (int c = 0; c < rig.NumCameras(); ++c) {
       const cv::Mat image = RenderImage(world.scene, rig, c, world_from_rig, t_rel_ns, frame, options.render);
       const std::string relative = "images/" + rig.cameras[c].name + "/" + FrameFileName(frame);
-      WritePng(staging.path() / relative, image);
+      WritePng(out.staging() / relative, image);
       row.image_paths.push_back(relative);
     }
     table.rows.push_back(std::move(row));
@@ -369,21 +364,19 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
     pose.world_from_body = world_from_rig(t_rel_ns);
     ground_truth.poses.push_back(pose);
     if (progress) progress(frame + 1, frames);
+    ThrowIfCancelled();
   }
   summary.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  WriteRig(staging.path() / "rig.json", rig);
-  WriteFrameTable(staging.path() / "frames.csv", table);
-  WriteTrajectory(staging.path() / "groundtruth.tum", ground_truth, TrajectoryFormat::kTum);
-  WriteSceneCsv(staging.path() / "structure" / "scene_quads.csv", world.scene);
-  WriteFileAtomic(staging.path() / "meta.json",
+  WriteRig(out.staging() / "rig.json", rig);
+  WriteFrameTable(out.staging() / "frames.csv", table);
+  WriteTrajectory(out.staging() / "groundtruth.tum", ground_truth, TrajectoryFormat::kTum);
+  WriteSceneCsv(out.staging() / "structure" / "scene_quads.csv", world.scene);
+  WriteFileAtomic(out.staging() / "meta.json",
                   MetaJson(options, scene_name, world, spec, trajectory.LengthM(), rig, frames));
 
-  if (std::filesystem::exists(absolute_out, ec)) std::filesystem::remove_all(absolute_out, ec);
-  std::filesystem::rename(staging.path(), absolute_out, ec);
-  if (ec)
-    MCVO_THROW_INPUT(absolute_out.string(), ": cannot move the finished sequence into place: ", ec.message());
-  staging.Release();
+  ThrowIfCancelled();
+  out.Commit();
   return summary;
 }
 

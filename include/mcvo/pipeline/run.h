@@ -38,6 +38,7 @@ struct RunRequest {
   bool force = false;         // replace a non-empty output folder
   PipelineOptions options;    // checked
   std::string config_source;  // config file path, or "built-in defaults"
+  std::filesystem::path config_path;  // the config file read, empty for the built-in defaults
   int max_frames = 0;         // 0: all
   std::string command_line;   // for run.json
   std::string version;        // program version, for run.json
@@ -101,14 +102,23 @@ RunSummary RunPipeline(const RunRequest& request);
 // `frames` frames, in frame and camera order; "missing" for a missing image).
 // Reads the input files but decodes nothing, so `mcvo batch` can tell
 // whether a finished run is up to date without running it again.
-// Then "vocabulary_sha256" when `vocabulary` is not empty (loop closure's
-// bag-of-words vocabulary: RunVocabularyPath). The images are hashed on
-// `threads` threads (0: all cores); the hashes do not depend on it.
+// Then "dataset_sha256": everything else of the dataset that changes a
+// result, as read (HashDatasetContent). Then "vocabulary_sha256" when
+// `vocabulary` is not empty (loop closure's bag-of-words vocabulary:
+// RunVocabularyPath). The images are hashed on `threads` threads (0: all
+// cores); the hashes do not depend on it.
 std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetIndex& index,
                                                                const std::filesystem::path& tracks,
                                                                int frames,
                                                                const std::filesystem::path& vocabulary = {},
                                                                int threads = 1);
+
+// One hash over what a dataset gives a run besides its rig and its image
+// files: the frame times and which images are missing (of the first
+// `frames` frames), the ground truth (every time and pose, at full
+// precision) and the camera masks (their pixels). Editing groundtruth.tum,
+// shifting times in frames.csv or editing a mask changes it.
+std::string HashDatasetContent(const DatasetIndex& index, int frames);
 
 // The vocabulary file a run with these options reads: empty when loop
 // closure is off, the built-in one when none is configured.
