@@ -340,7 +340,7 @@ TEST(BatchRun, AFailingRunDoesNotStopTheOthers) {
   BatchOptions options;
   options.out_dir = Root() / "isolation";
   options.jobs = 2;
-  // A folder in the way that holds no run is not replaced without --force.
+  // A folder in the way that mcvo did not write is never replaced (util/output_folder.h).
   fs::create_directories(options.out_dir / "last");
   WriteFileAtomic(options.out_dir / "last" / "mine.txt", "keep");
   const BatchReport report = RunBatch(manifest, options);
@@ -352,7 +352,7 @@ TEST(BatchRun, AFailingRunDoesNotStopTheOthers) {
   EXPECT_NE(report.runs[2].note.find("bad.json"), std::string::npos) << report.runs[2].note;
   EXPECT_NE(report.runs[2].note.find("window_sise"), std::string::npos) << report.runs[2].note;
   EXPECT_EQ(report.runs[3].status, BatchRunStatus::kFailed);
-  EXPECT_NE(report.runs[3].note.find("holds no finished run"), std::string::npos) << report.runs[3].note;
+  EXPECT_NE(report.runs[3].note.find("holds no .mcvo-output marker"), std::string::npos) << report.runs[3].note;
   EXPECT_TRUE(fs::exists(options.out_dir / "last" / "mine.txt"));
   EXPECT_EQ(report.Count(BatchRunStatus::kFailed), 3);
   EXPECT_TRUE(fs::is_regular_file(options.out_dir / "first" / "run.json"));

@@ -143,12 +143,19 @@ TEST(Synthesize, RefusesANonEmptyOutputFolderUnlessForced) {
     EXPECT_NE(std::string(e.what()).find("--force"), std::string::npos) << e.what();
   }
   EXPECT_EQ(ReadFileToString(out / "precious.txt"), "keep me");
+  // --force replaces only a folder mcvo wrote (util/output_folder.h): not this one.
   SynthOptions forced = SmallKitti360(2);
   forced.force = true;
   forced.frames = 1;
-  Synthesize(forced, out);
-  EXPECT_FALSE(fs::exists(out / "precious.txt"));
-  EXPECT_TRUE(fs::exists(out / "frames.csv"));
+  EXPECT_THROW(Synthesize(forced, out), InputError);
+  EXPECT_EQ(ReadFileToString(out / "precious.txt"), "keep me");
+  // An earlier render is replaced whole.
+  const fs::path render = TempDir("rerender");
+  Synthesize(forced, render);
+  WriteFileAtomic(render / "images" / "stray.txt", "from the first render");
+  Synthesize(forced, render);
+  EXPECT_FALSE(fs::exists(render / "images" / "stray.txt"));
+  EXPECT_TRUE(fs::exists(render / "frames.csv"));
 }
 
 TEST(Synthesize, BadOptionsFailBeforeWritingAnything) {
