@@ -19,6 +19,7 @@
 #include "command.h"
 #include "dataset_args.h"
 #include "mcvo/config/config.h"
+#include "mcvo/config/option_bounds.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/frontend/detector.h"
 #include "mcvo/frontend/multi_camera_tracker.h"
@@ -193,6 +194,7 @@ int RunTrack(int argc, const char* const* argv) {
   DatasetOptions dataset_options = MakeDatasetOptions(dataset);
   if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
   const DatasetIndex index = OpenDataset(dataset_options);
+  CheckOptionsAgainstRig(options, index.rig, config_path.empty() ? std::string("built-in defaults") : config_path);
   // Start-up: the frame source builds each camera's detector (model file
   // and layout checked here), before any image is decoded. It is `mcvo
   // run`'s: the frontend on a producer thread ahead of this one, which
