@@ -19,6 +19,7 @@
 #include "command.h"
 #include "dataset_args.h"
 #include "mcvo/config/config.h"
+#include "mcvo/config/option_bounds.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/frontend/detector.h"
 #include "mcvo/frontend/multi_camera_tracker.h"
@@ -195,6 +196,7 @@ int RunTrack(int argc, const char* const* argv) {
   DatasetOptions dataset_options = MakeDatasetOptions(dataset);
   if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
   const DatasetIndex index = OpenDataset(dataset_options);
+  CheckOptionsAgainstRig(options, index.rig, config_path.empty() ? std::string("built-in defaults") : config_path);
   // Never written over or inside an input (util/output_folder.h).
   const std::vector<std::filesystem::path> inputs = {dataset_options.root, index.root, config_path,
                                                      options.frontend.model_path};

@@ -5,6 +5,7 @@
 #include <set>
 #include <string>
 
+#include "mcvo/config/option_bounds.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/option_checks.h"
 #include "mcvo/util/strings.h"
@@ -68,6 +69,7 @@ void PipelineOptions::Check() const {
                      "), got ", initializer.window_size);
   }
   colmap.Check();
+  CheckOptionBounds(*this);
 }
 
 }  // namespace mcvo

@@ -12,6 +12,7 @@
 #include <condition_variable>
 #include <exception>
 #include <mutex>
+#include <optional>
 #include <system_error>
 #include <thread>
 #include <utility>
@@ -34,8 +35,18 @@ struct CameraSize {
   int height = 0;
 };
 
+[[noreturn]] void ThrowWrongSize(const std::filesystem::path& path, int64_t width, int64_t height,
+                                 const CameraSize& camera) {
+  MCVO_THROW_INPUT(path.string(), ": image is ", width, " x ", height, " px but camera ", camera.name,
+                   " expects ", camera.width, " x ", camera.height);
+}
+
 // The file's decode as it is (colour, 16-bit); the caller takes its grey
-// with GreyOfDecodedImage.
+// with GreyOfDecodedImage. The size its header declares is checked first,
+// before a decoder allocates the image (a small PNG may declare 30000 x
+// 30000 px); either orientation passes there, as the EXIF orientation that
+// cv::imread applies may turn the decode. Formats without a header reader
+// are checked after the decode.
 cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
@@ -43,6 +54,11 @@ cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera)
     MCVO_THROW_INPUT(path.string(), ": image file ", why == "does not exist" || why.empty() ? "missing" : why);
   }
   if (std::filesystem::file_size(path, ec) == 0 && !ec) MCVO_THROW_INPUT(path.string(), ": empty image file (0 bytes)");
+  if (const std::optional<ImageHeader> header = ReadImageHeader(path)) {
+    const bool upright = header->width == camera.width && header->height == camera.height;
+    const bool turned = header->width == camera.height && header->height == camera.width;
+    if (!upright && !turned) ThrowWrongSize(path, header->width, header->height, camera);
+  }
   cv::Mat image;
   try {
     image = ReadImageFile(path);
@@ -52,10 +68,7 @@ cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera)
   if (image.empty()) {
     MCVO_THROW_INPUT(path.string(), ": cannot decode image (not an image format OpenCV reads, or truncated)");
   }
-  if (image.cols != camera.width || image.rows != camera.height) {
-    MCVO_THROW_INPUT(path.string(), ": image is ", image.cols, " x ", image.rows, " px but camera ",
-                     camera.name, " expects ", camera.width, " x ", camera.height);
-  }
+  if (image.cols != camera.width || image.rows != camera.height) ThrowWrongSize(path, image.cols, image.rows, camera);
   return image;
 }
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "loop_stage.h"
+#include "mcvo/config/option_bounds.h"
 #include "mcvo/eval/evaluate.h"
 #include "mcvo/frontend/cross_camera.h"
 #include "mcvo/io/rig_io.h"
@@ -301,6 +302,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   DatasetOptions dataset_options = request.dataset;
   if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
   const DatasetIndex index = OpenRunDataset(dataset_options);
+  CheckOptionsAgainstRig(options, index.rig, request.config_source);
   const bool monocular = index.rig.NumCameras() == 1;
   const Rig& rig = index.rig;
   const int threads = ResolveThreads(options.runtime.threads);

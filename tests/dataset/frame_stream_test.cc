@@ -1,8 +1,12 @@
 // FrameStream: order and pixels independent of the thread count, bounded
 // prefetch, clean early shutdown, and decode errors reported at their frame.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -12,6 +16,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dataset/dataset_fixtures.h"
+#include "dataset/forged_images.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/util/error.h"
 
@@ -136,6 +141,53 @@ TEST(FrameStream, WrongImageSizeThrows) {
     EXPECT_EQ(message.rfind(broken.string() + ": image is 30 x 20 px", 0), 0u) << message;
     EXPECT_NE(message.find("expects 141 x 38"), std::string::npos) << message;
   }
+}
+
+// The virtual memory of this process now, in bytes.
+uint64_t AddressSpaceBytes() {
+  std::ifstream statm("/proc/self/statm");
+  uint64_t pages = 0;
+  statm >> pages;
+  return pages * static_cast<uint64_t>(sysconf(_SC_PAGESIZE));
+}
+
+// In a death test's child: exit 0 when the first frame throws `expected`.
+[[noreturn]] void DecodeFirstFrameUnderLimit(const DatasetIndex& index, const std::string& expected) {
+  const rlimit limit{AddressSpaceBytes() + (uint64_t{300} << 20), RLIM_INFINITY};
+  if (setrlimit(RLIMIT_AS, &limit) != 0) std::_Exit(4);
+  try {
+    FrameStream stream(index, {1, 1});
+    stream.Next();
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    std::_Exit(std::string(e.what()) == expected ? 0 : 2);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    std::_Exit(3);
+  }
+  std::_Exit(1);
+}
+
+// Frame 0 of image_00 replaced by `bytes`: the first Next() must throw the
+// size error naming the declared size, in a child process whose address
+// space may grow by only 300 MB (the declared image is 900 MB: decoding
+// before the check would fail with another message, or not at all).
+void ExpectSizeErrorWithoutDecoding(const std::string& name, const std::vector<uint8_t>& bytes,
+                                    const std::string& declared) {
+  const fs::path root = CopyDataset(Stereo(), kSuite, name);
+  const fs::path forged = root / "images" / "image_00" / "000000.png";
+  testing::WriteBytes(forged, bytes);
+  const DatasetIndex index = Open(root);
+  const std::string expected = forged.string() + ": image is " + declared + " px but camera image_00 expects 141 x 38";
+  EXPECT_EXIT(DecodeFirstFrameUnderLimit(index, expected), ::testing::ExitedWithCode(0), "") << expected;
+}
+
+TEST(FrameStream, ForgedPngSizeFailsFromItsHeader) {
+  ExpectSizeErrorWithoutDecoding("forged_png", testing::PngDeclaring(30000, 30000), "30000 x 30000");
+}
+
+TEST(FrameStream, ForgedJpegSizeFailsFromItsHeader) {
+  ExpectSizeErrorWithoutDecoding("forged_jpeg", testing::JpegDeclaring(30000, 30000), "30000 x 30000");
 }
 
 TEST(FrameStream, ImageDeletedAfterOpening) {

@@ -17,6 +17,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 
 #include <opencv2/core/mat.hpp>
 
@@ -35,6 +36,26 @@ namespace mcvo {
 // or a damaged file, gives an empty Mat: the caller then asks OpenCV, which
 // decodes it or says what is wrong. Thread-safe.
 cv::Mat DecodePng(const uint8_t* data, size_t size);
+
+// What a file's header declares, read without decoding the pixels.
+struct ImageHeader {
+  const char* format = "";  // "png", "jpeg", "pnm", "bmp" or "tiff"
+  int64_t width = 0;
+  int64_t height = 0;
+  int bit_depth = 0;  // bits per sample (per pixel for palette BMPs)
+  int channels = 0;   // samples per pixel as stored (a palette: 1)
+};
+
+// The header of a PNG (IHDR, its CRC sound), JPEG (the first SOFn marker),
+// PNM (P1-P6), BMP or TIFF (the first IFD) file, identified by its first
+// bytes as OpenCV identifies them, read from the few bytes before the pixel
+// data: so that a file's size can be checked before a decoder allocates the
+// image. std::nullopt for other formats, a JPEG whose height comes later
+// (DNL), BigTIFF, and headers that are damaged or cut short (the decoder then
+// says what is wrong). The decode of a JPEG or TIFF file may be turned by
+// its EXIF orientation (cv::imread applies it): width and height are then
+// swapped in the decode.
+std::optional<ImageHeader> ReadImageHeader(const std::filesystem::path& path);
 
 // cv::imread(path, IMREAD_ANYCOLOR | IMREAD_ANYDEPTH), with PNG files that
 // DecodePng covers decoded by it (the same Mat). Like cv::imread: an empty
