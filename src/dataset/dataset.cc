@@ -160,10 +160,11 @@ std::string DetectDatasetFormat(const fs::path& root) {
     MCVO_THROW_INPUT(root.string(), ": looks like a generic dataset but ",
                      Exists(root / "rig.json") ? "frames.csv" : "rig.json", " is missing");
   }
-  MCVO_THROW_INPUT(root.string(),
-                   ": unknown dataset layout (expected rig.json + frames.csv, KITTI-360 calibration/ + "
-                   "data_2d_raw/, KITTI odometry sequences/ or calib.txt + image_0/, EuRoC mav0/ or cam0/data.csv, or a "
-                   "Kalibr camchain*.yaml); give --format");
+  MCVO_THROW_INPUT(
+      root.string(),
+      ": unknown dataset layout (expected rig.json + frames.csv, KITTI-360 calibration/ + "
+      "data_2d_raw/, KITTI odometry sequences/ or calib.txt + image_0/, EuRoC mav0/ or cam0/data.csv, or a "
+      "Kalibr camchain*.yaml); give --format");
 }
 
 DatasetIndex OpenDataset(const DatasetOptions& options) {

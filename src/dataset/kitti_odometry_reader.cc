@@ -63,9 +63,9 @@ int CameraIndex(const std::string& name) {
 
 // Where the sequence is and what it is called.
 struct SequencePaths {
-  std::string name;   // "06"
-  fs::path folder;    // .../sequences/06
-  fs::path poses;     // .../poses/06.txt (may not exist)
+  std::string name;  // "06"
+  fs::path folder;   // .../sequences/06
+  fs::path poses;    // .../poses/06.txt (may not exist)
 };
 
 SequencePaths ResolveSequence(const DatasetOptions& options, std::vector<std::string>* log) {
@@ -177,7 +177,8 @@ Calibration ReadCalibration(const fs::path& path, std::vector<std::string>* log)
     const Line& line = lines[i];
     const std::string where = StrCat(path.string(), ":", line.number);
     if (keyed && line.key.empty()) {
-      MCVO_THROW_INPUT(where, ": expected 'P0: 12 numbers' (a key before the numbers; other lines have keys)");
+      MCVO_THROW_INPUT(where,
+                       ": expected 'P0: 12 numbers' (a key before the numbers; other lines have keys)");
     }
     const std::string key = keyed ? line.key : (i < kNumCameras ? StrCat("P", i) : std::string("Tr"));
     if (key == "Tr" || key == "Tr_velo_to_cam") {
@@ -194,7 +195,8 @@ Calibration ReadCalibration(const fs::path& path, std::vector<std::string>* log)
     if (calibration.p[static_cast<size_t>(k)]) MCVO_THROW_INPUT(where, ": ", key, ": given twice");
     calibration.p[static_cast<size_t>(k)] = ParseTwelve(line.fields, where, key);
   }
-  if (!keyed) log->push_back(StrCat(path.string(), ": lines without keys, read in the order P0, P1, P2, P3, Tr"));
+  if (!keyed)
+    log->push_back(StrCat(path.string(), ": lines without keys, read in the order P0, P1, P2, P3, Tr"));
   if (!calibration.p[0]) MCVO_THROW_INPUT(path.string(), ": missing P0 (camera 0 defines the rig frame)");
   return calibration;
 }
@@ -205,11 +207,12 @@ void SplitProjection(const Matrix34d& p, const std::string& where, Eigen::Matrix
   *k = p.leftCols<3>();
   const double fx = (*k)(0, 0), fy = (*k)(1, 1);
   if (!(fx > 0.0 && fy > 0.0))
-    MCVO_THROW_INPUT(where, ": focal lengths must be > 0 (P[0,0] = ", FormatDouble(fx), ", P[1,1] = ",
-                     FormatDouble(fy), ")");
+    MCVO_THROW_INPUT(where, ": focal lengths must be > 0 (P[0,0] = ", FormatDouble(fx),
+                     ", P[1,1] = ", FormatDouble(fy), ")");
   if ((*k)(0, 1) != 0.0) MCVO_THROW_INPUT(where, ": skew P[0,1] = ", FormatDouble((*k)(0, 1)), " is not 0");
   if ((*k)(1, 0) != 0.0 || (*k)(2, 0) != 0.0 || (*k)(2, 1) != 0.0 || (*k)(2, 2) != 1.0) {
-    MCVO_THROW_INPUT(where, ": the left 3x3 of P is not a rectified pinhole K (expected P[1,0] = P[2,0] = "
+    MCVO_THROW_INPUT(where,
+                     ": the left 3x3 of P is not a rectified pinhole K (expected P[1,0] = P[2,0] = "
                      "P[2,1] = 0 and P[2,2] = 1)");
   }
   // t = K^-1 P[:, 3] by back substitution (upper triangular K): exactly
@@ -226,7 +229,8 @@ std::pair<int, int> PngSize(const fs::path& path) {
   unsigned char head[24] = {};
   in.read(reinterpret_cast<char*>(head), sizeof(head));
   static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (in.gcount() < static_cast<std::streamsize>(sizeof(head)) || !std::equal(kSignature, kSignature + 8, head) ||
+  if (in.gcount() < static_cast<std::streamsize>(sizeof(head)) ||
+      !std::equal(kSignature, kSignature + 8, head) ||
       std::string(reinterpret_cast<const char*>(head + 12), 4) != "IHDR") {
     MCVO_THROW_INPUT(path.string(), ": not a PNG image (bad or truncated header)");
   }
@@ -303,7 +307,8 @@ std::vector<int> SelectCameras(const DatasetOptions& options, const fs::path& fo
   if (chosen.empty()) MCVO_THROW_INPUT(folder.string(), ": no camera folder (image_0 .. image_3)");
   std::string names;
   for (const int k : chosen) names += (names.empty() ? "" : ", ") + CameraName(k);
-  log->push_back(StrCat("cameras: ", names, " (default: the grey pair, else the colour pair, else what "
+  log->push_back(StrCat("cameras: ", names,
+                        " (default: the grey pair, else the colour pair, else what "
                         "there is; --cameras chooses)"));
   return chosen;
 }
@@ -379,8 +384,9 @@ DatasetIndex ReadKittiOdometryDataset(const DatasetOptions& options) {
     camera.cam_from_rig = Rigid3d(Eigen::Quaterniond::Identity(), t - t0);
     index.rig.cameras.push_back(camera);
   }
-  index.log.push_back(StrCat("kitti: rig frame = camera 0 (P0); cam_from_rig of camera i = [I | K_i^-1 P_i[:,3]",
-                             t0.isZero() ? "" : " - K_0^-1 P0[:,3]", "]"));
+  index.log.push_back(
+      StrCat("kitti: rig frame = camera 0 (P0); cam_from_rig of camera i = [I | K_i^-1 P_i[:,3]",
+             t0.isZero() ? "" : " - K_0^-1 P0[:,3]", "]"));
   index.masks.assign(index.rig.cameras.size(), cv::Mat());
 
   // Frame count: up to the last image of any chosen camera.
@@ -415,12 +421,15 @@ DatasetIndex ReadKittiOdometryDataset(const DatasetOptions& options) {
     }
     index.frames.push_back(std::move(frame));
   }
-  const char* action = options.missing_images == MissingImagePolicy::kSkipFrame ? "skipped" : "marked missing";
+  const char* action =
+      options.missing_images == MissingImagePolicy::kSkipFrame ? "skipped" : "marked missing";
   int without_reference = 0;
   for (size_t c = 1; c < num_cameras; ++c) {
     if (no_image[c] > 0)
-      index.log.push_back(StrCat(index.rig.cameras[c].name, ": no image at ", no_image[c], " frame(s), ", action));
-    for (const auto& entry : cameras[c].images) without_reference += cameras[0].images.count(entry.first) == 0;
+      index.log.push_back(
+          StrCat(index.rig.cameras[c].name, ": no image at ", no_image[c], " frame(s), ", action));
+    for (const auto& entry : cameras[c].images)
+      without_reference += cameras[0].images.count(entry.first) == 0;
   }
   if (skipped > 0) index.log.push_back(StrCat("skipped ", skipped, " incomplete frame(s)"));
   if (without_reference > 0) {
@@ -439,10 +448,12 @@ DatasetIndex ReadKittiOdometryDataset(const DatasetOptions& options) {
     for (StampedPose& pose : ground_truth.poses) pose.t_ns = times[static_cast<size_t>(pose.frame_index)];
     ground_truth.has_time = true;
     index.log.push_back(StrCat("ground truth: ", ground_truth.poses.size(), " pose(s) from ",
-                               sequence.poses.lexically_normal().string(), " (world_from_cam0 = world_from_rig)"));
+                               sequence.poses.lexically_normal().string(),
+                               " (world_from_cam0 = world_from_rig)"));
     index.ground_truth = std::move(ground_truth);
   } else {
-    index.log.push_back(StrCat("no ground truth (", sequence.poses.lexically_normal().string(), " does not exist)"));
+    index.log.push_back(
+        StrCat("no ground truth (", sequence.poses.lexically_normal().string(), " does not exist)"));
   }
   for (const std::string& line : index.log) MCVO_LOG(kDebug, line);
   return index;

@@ -102,7 +102,8 @@ fs::path WriteSequence(const fs::path& root, const std::string& seq, const std::
   const fs::path folder = root / "sequences" / seq;
   for (const int k : cameras) {
     const bool colour = k >= 2;
-    const cv::Mat image(colour ? 14 : 12, colour ? 44 : 40, colour ? CV_8UC3 : CV_8UC1, cv::Scalar(90, 120, 30));
+    const cv::Mat image(colour ? 14 : 12, colour ? 44 : 40, colour ? CV_8UC3 : CV_8UC1,
+                        cv::Scalar(90, 120, 30));
     fs::create_directories(folder / ("image_" + std::to_string(k)));
     for (int i = 0; i < frames; ++i) {
       char name[32];
@@ -141,8 +142,8 @@ void ExpectInputError(const DatasetOptions& options, const std::vector<std::stri
 // pixel P_i * X gives.
 void ExpectProjectsLikeP(const Camera& camera, const char* p_text) {
   const Matrix34d p = ParseP(p_text);
-  for (const Eigen::Vector3d& x : {Eigen::Vector3d(1.5, -0.7, 9.0), Eigen::Vector3d(-4.0, 1.2, 25.0),
-                                  Eigen::Vector3d(0.3, 0.1, 3.0)}) {
+  for (const Eigen::Vector3d& x :
+       {Eigen::Vector3d(1.5, -0.7, 9.0), Eigen::Vector3d(-4.0, 1.2, 25.0), Eigen::Vector3d(0.3, 0.1, 3.0)}) {
     const Eigen::Vector3d h = p * x.homogeneous();
     const std::optional<Eigen::Vector2d> pixel = camera.Project(camera.cam_from_rig * x);
     ASSERT_TRUE(pixel.has_value());
@@ -265,7 +266,8 @@ TEST(KittiOdometry, GroundTruthIsCameraZeroInTheRigFrameTimedByTimesTxt) {
     EXPECT_NEAR((pose.RotationMatrix() * Eigen::Vector3d::UnitZ()).x(), std::sin(0.02), 1e-9);
     // Camera 1's centre in the world: 0.537 m along camera 0's x axis.
     const Eigen::Vector3d c1 = pose * index.rig.cameras[1].cam_from_rig.Inverse().translation;
-    const Eigen::Vector3d expected = pose.translation + 0.5371506 * (pose.RotationMatrix() * Eigen::Vector3d::UnitX());
+    const Eigen::Vector3d expected =
+        pose.translation + 0.5371506 * (pose.RotationMatrix() * Eigen::Vector3d::UnitX());
     EXPECT_NEAR((c1 - expected).norm(), 0.0, 1e-6);
   }
   fs::remove(root / "poses" / "06.txt");

@@ -54,7 +54,8 @@ fs::path KittiLayout() {
   const fs::path root = Scratch() / "kitti";
   if (fs::exists(root / "poses" / "06.txt")) return root;
   const fs::path seq = root / "sequences" / "06";
-  for (const auto& [from, to] : {std::pair<std::string, std::string>{"image_00", "image_0"}, {"image_01", "image_1"}}) {
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"image_00", "image_0"}, {"image_01", "image_1"}}) {
     fs::create_directories(seq / to);
     for (const fs::directory_entry& entry : fs::directory_iterator(kSample / "images" / from))
       fs::create_symlink(entry.path(), seq / to / entry.path().filename());
@@ -74,9 +75,9 @@ fs::path KittiLayout() {
 
 nlohmann::json ReadJson(const fs::path& path) { return nlohmann::json::parse(mcvo::ReadFileToString(path)); }
 
-#define SKIP_WITHOUT_SAMPLE(root)                                                        \
-  if ((root).empty()) GTEST_SKIP() << "no real KITTI sample at " << kSample.string() \
-                                   << " (../shared/data/real/kitti06_stereo)"
+#define SKIP_WITHOUT_SAMPLE(root) \
+  if ((root).empty())             \
+  GTEST_SKIP() << "no real KITTI sample at " << kSample.string() << " (../shared/data/real/kitti06_stereo)"
 
 TEST(KittiCli, InfoDescribesTheSequenceAtTheFolderAndAtTheRoot) {
   const fs::path root = KittiLayout();
@@ -100,9 +101,8 @@ TEST(KittiCli, RunIsEvaluatedAgainstTheGroundTruthAndMatchesTheGenericLayout) {
   const fs::path root = KittiLayout();
   SKIP_WITHOUT_SAMPLE(root);
   const fs::path out = Scratch() / "run_kitti";
-  const Result r = RunMcvoWithin(
-      300, "run --dataset " + Quote((root / "sequences" / "06").string()) + " --frames 20 --threads 2 --out " +
-               Quote(out.string()));
+  const Result r = RunMcvoWithin(300, "run --dataset " + Quote((root / "sequences" / "06").string()) +
+                                          " --frames 20 --threads 2 --out " + Quote(out.string()));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(Lines(out / "trajectory_kitti.txt").size(), 20u);
   const nlohmann::json run = ReadJson(out / "run.json");
@@ -111,7 +111,8 @@ TEST(KittiCli, RunIsEvaluatedAgainstTheGroundTruthAndMatchesTheGenericLayout) {
   EXPECT_EQ(result["posed_frames"], 20);
   ASSERT_TRUE(result.contains("ate_percent_of_path")) << result.dump();
   const double ate = result["ate_percent_of_path"].get<double>();
-  std::printf("kitti 06, 20 frames: SE3 ATE %.3f %% of %.1f m\n", ate, result["gt_path_length_m"].get<double>());
+  std::printf("kitti 06, 20 frames: SE3 ATE %.3f %% of %.1f m\n", ate,
+              result["gt_path_length_m"].get<double>());
   EXPECT_EQ(result["alignment"], "se3");
   EXPECT_GT(result["gt_path_length_m"].get<double>(), 20.0);
   EXPECT_LT(ate, 0.6);
@@ -119,10 +120,11 @@ TEST(KittiCli, RunIsEvaluatedAgainstTheGroundTruthAndMatchesTheGenericLayout) {
   // The generic layout of the same sample: the same rig (same camera names),
   // images and times, so the same trajectory.
   const fs::path generic = Scratch() / "run_generic";
-  const Result g = RunMcvoWithin(
-      300, "run --dataset " + Quote(kSample.string()) + " --frames 20 --threads 2 --out " + Quote(generic.string()));
+  const Result g = RunMcvoWithin(300, "run --dataset " + Quote(kSample.string()) +
+                                          " --frames 20 --threads 2 --out " + Quote(generic.string()));
   ASSERT_EQ(g.exit_code, 0) << g.output;
-  EXPECT_EQ(mcvo::ReadFileToString(out / "trajectory.tum"), mcvo::ReadFileToString(generic / "trajectory.tum"));
+  EXPECT_EQ(mcvo::ReadFileToString(out / "trajectory.tum"),
+            mcvo::ReadFileToString(generic / "trajectory.tum"));
 }
 
 }  // namespace
