@@ -9,8 +9,8 @@ namespace mcvo::tools {
 void AddDatasetArgs(ArgParser* args, DatasetArgs* values, bool dataset_required) {
   args->AddString("dataset", &values->root, "DIR", "dataset folder (any layout, docs/datasets.md)",
                   dataset_required);
-  args->AddString("format", &values->format, "F", "dataset layout: auto, generic, kitti360, euroc, kalibr");
-  args->AddString("sequence", &values->sequence, "S", "sequence of a multi-sequence dataset (kitti360)");
+  args->AddString("format", &values->format, "F", "dataset layout: auto, generic, kitti360, kitti, euroc, kalibr");
+  args->AddString("sequence", &values->sequence, "S", "sequence of a multi-sequence dataset (kitti360; kitti: NN)");
   args->AddString("cameras", &values->cameras, "A,B",
                   "subset and order of the cameras (names); default: all");
   args->AddFlag("skip-incomplete", &values->skip_incomplete,

@@ -17,7 +17,7 @@ namespace {
 namespace fs = std::filesystem;
 
 const std::vector<std::string>& KnownFormats() {
-  static const std::vector<std::string> formats = {"auto", "generic", "kitti360", "euroc", "kalibr"};
+  static const std::vector<std::string> formats = {"auto", "generic", "kitti360", "kitti", "euroc", "kalibr"};
   return formats;
 }
 
@@ -36,6 +36,17 @@ std::vector<std::string> CameraNames(const Rig& rig) {
 bool Exists(const fs::path& path) {
   std::error_code ec;
   return fs::exists(path, ec);
+}
+
+// A KITTI odometry root (sequences/) or sequence folder (calib.txt and an
+// image_0 .. image_3 folder).
+bool IsKittiOdometryFolder(const fs::path& root) {
+  std::error_code ec;
+  if (fs::is_directory(root / "sequences", ec)) return true;
+  if (!fs::is_regular_file(root / "calib.txt", ec)) return false;
+  for (const char* folder : {"image_0", "image_1", "image_2", "image_3"})
+    if (fs::is_directory(root / folder, ec)) return true;
+  return false;
 }
 
 // Reorders (and subsets) the cameras of an index by name, when the layout
@@ -138,6 +149,7 @@ std::string DetectDatasetFormat(const fs::path& root) {
   if (Exists(root / "frames.csv") && Exists(root / "rig.json")) return "generic";
   if (Exists(root / "calibration") && Exists(root / "data_2d_raw")) return "kitti360";
   if (Exists(root / "mav0") || Exists(root / "cam0" / "data.csv")) return "euroc";
+  if (IsKittiOdometryFolder(root)) return "kitti";
   for (const fs::directory_entry& entry : fs::directory_iterator(root, ec)) {
     const std::string name = entry.path().filename().string();
     if (name.rfind("camchain", 0) == 0 &&
@@ -148,9 +160,11 @@ std::string DetectDatasetFormat(const fs::path& root) {
     MCVO_THROW_INPUT(root.string(), ": looks like a generic dataset but ",
                      Exists(root / "rig.json") ? "frames.csv" : "rig.json", " is missing");
   }
-  MCVO_THROW_INPUT(root.string(),
-                   ": unknown dataset layout (expected rig.json + frames.csv, KITTI-360 calibration/ + "
-                   "data_2d_raw/, EuRoC mav0/ or cam0/data.csv, or a Kalibr camchain*.yaml); give --format");
+  MCVO_THROW_INPUT(
+      root.string(),
+      ": unknown dataset layout (expected rig.json + frames.csv, KITTI-360 calibration/ + "
+      "data_2d_raw/, KITTI odometry sequences/ or calib.txt + image_0/, EuRoC mav0/ or cam0/data.csv, or a "
+      "Kalibr camchain*.yaml); give --format");
 }
 
 DatasetIndex OpenDataset(const DatasetOptions& options) {
@@ -162,6 +176,8 @@ DatasetIndex OpenDataset(const DatasetOptions& options) {
     index = ReadGenericDataset(resolved);
   } else if (resolved.format == "kitti360") {
     index = ReadKitti360Dataset(resolved);
+  } else if (resolved.format == "kitti") {
+    index = ReadKittiOdometryDataset(resolved);
   } else if (resolved.format == "euroc") {
     index = ReadEurocDataset(resolved);
   } else {

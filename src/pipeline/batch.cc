@@ -386,10 +386,10 @@ BatchManifest ParseBatchManifest(const std::string& json_text, const std::string
     spec.dataset.root = Resolve(base_dir, root_text);
     if (dataset.contains("format")) {
       spec.dataset.format = reader.String(dataset["format"], JoinPath(dpath, "format"));
-      const std::vector<std::string> formats = {"auto", "generic", "kitti360", "euroc", "kalibr"};
+      const std::vector<std::string> formats = {"auto", "generic", "kitti360", "kitti", "euroc", "kalibr"};
       if (std::find(formats.begin(), formats.end(), spec.dataset.format) == formats.end()) {
         reader.Fail(JoinPath(dpath, "format"), "unknown format \"" + spec.dataset.format +
-                                                   "\" (known: auto, generic, kitti360, euroc, kalibr)");
+                                                   "\" (known: auto, generic, kitti360, kitti, euroc, kalibr)");
       }
     }
     if (dataset.contains("sequence")) {

@@ -9,8 +9,8 @@
 //   while (std::optional<FrameImages> frame = stream.Next()) { ... }
 //
 // Layouts: "generic" (what `mcvo synth` writes, docs/dataset-format.md),
-// "kitti360", "euroc" (ASL), "kalibr" (MultiCamData: camchain.yaml +
-// camN/<ns>.png). Facts and conventions: docs/datasets.md.
+// "kitti360", "kitti" (KITTI odometry sequences as shipped), "euroc" (ASL),
+// "kalibr" (MultiCamData: camchain.yaml + camN/<ns>.png). Facts and conventions: docs/datasets.md.
 #pragma once
 
 #include <cstdint>
@@ -36,8 +36,8 @@ enum class MissingImagePolicy {
 
 struct DatasetOptions {
   std::filesystem::path root;        // dataset folder (layout-specific meaning)
-  std::string format = "auto";       // auto | generic | kitti360 | euroc | kalibr
-  std::string sequence;              // kitti360: e.g. 2013_05_28_drive_0000_sync
+  std::string format = "auto";       // auto | generic | kitti360 | kitti | euroc | kalibr
+  std::string sequence;              // kitti360: e.g. 2013_05_28_drive_0000_sync; kitti: e.g. 06
   std::vector<std::string> cameras;  // subset and order of cameras (names); empty: all
   MissingImagePolicy missing_images = MissingImagePolicy::kMarkMissing;
   // Largest time difference between the images of one frame (layouts with
@@ -82,11 +82,13 @@ DatasetIndex OpenDataset(const DatasetOptions& options);
 // Per-layout readers behind OpenDataset (options.format already resolved).
 DatasetIndex ReadGenericDataset(const DatasetOptions& options);
 DatasetIndex ReadKitti360Dataset(const DatasetOptions& options);
+DatasetIndex ReadKittiOdometryDataset(const DatasetOptions& options);
 DatasetIndex ReadEurocDataset(const DatasetOptions& options);
 DatasetIndex ReadKalibrDataset(const DatasetOptions& options);
 
 // Guesses the layout of a folder: generic (frames.csv + rig.json), kitti360
-// (calibration/ + data_2d_raw/), euroc (mav0/ or cam0/data.csv), kalibr
+// (calibration/ + data_2d_raw/), euroc (mav0/ or cam0/data.csv), kitti
+// (sequences/, or calib.txt + an image_0 .. image_3 folder), kalibr
 // (camchain*.yaml). Throws InputError when none fits.
 std::string DetectDatasetFormat(const std::filesystem::path& root);
 
