@@ -50,6 +50,6 @@ void ThrowIfCancelled() {
   if (signal_number != 0) throw Cancelled(signal_number);
 }
 
-void RequestCancelForTesting(int signal_number) { g_signal = signal_number; }
+void RequestCancel(int signal_number) { g_signal = signal_number; }
 
 }  // namespace mcvo

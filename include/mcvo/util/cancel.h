@@ -30,7 +30,9 @@ int CancelSignal();
 // Throws Cancelled when a signal asked to stop.
 void ThrowIfCancelled();
 
-// For tests: as if `signal_number` had arrived (0 clears it).
-void RequestCancelForTesting(int signal_number);
+// As if `signal_number` had arrived (0 clears the request): for an embedder
+// that handles signals itself (the Python module on KeyboardInterrupt) and
+// for tests.
+void RequestCancel(int signal_number);
 
 }  // namespace mcvo
