@@ -25,6 +25,7 @@
 #include "mcvo/synth/trajectory.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::synth {
@@ -357,6 +358,7 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
     FrameTableRow row;
     row.t_ns = options.first_t_ns + t_rel_ns;
     for (int c = 0; c < rig.NumCameras(); ++c) {
+      const ScopedStage stage(StrCat("synth: rendering frame ", frame, " of camera ", rig.cameras[c].name));
       const cv::Mat image = RenderImage(world.scene, rig, c, world_from_rig, t_rel_ns, frame, options.render);
       const std::string relative = "images/" + rig.cameras[c].name + "/" + FrameFileName(frame);
       WritePng(staging.path() / relative, image);
