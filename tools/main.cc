@@ -4,11 +4,17 @@
 #include <cstring>
 #include <exception>
 #include <iostream>
+#include <new>
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/core.hpp>
 
 #include "command.h"
 #include "mcvo/util/blas.h"
 #include "mcvo/util/cancel.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/stage.h"
 
 namespace mcvo::tools {
 
@@ -28,7 +34,8 @@ void PrintTopLevelHelp(std::ostream& out) {
     out << left << info.summary << "\n";
   }
   out << "\n'mcvo <command> --help' describes a command.\n"
-         "exit codes: 0 ok, 1 internal error, 2 usage error, 3 bad input.\n";
+         "exit codes: 0 ok, 1 internal error (or out of memory, or out of threads), 2 usage error,\n"
+         "3 bad input.\n";
 }
 
 }  // namespace
@@ -64,6 +71,22 @@ int main(int argc, char** argv) {
   } catch (const InputError& e) {
     std::cerr << "mcvo " << argv[1] << ": error: " << e.what() << "\n";
     return kExitBadInput;
+  } catch (const ResourceError& e) {
+    std::cerr << "mcvo " << argv[1] << ": error: " << e.what() << "\n";
+    return kExitInternal;
+  } catch (const std::bad_alloc& e) {
+    std::cerr << OutOfMemoryMessage(argv[1], FailedStage(), e.what()) << "\n";
+    return kExitInternal;
+  } catch (const std::length_error& e) {  // a size beyond what a container can hold
+    std::cerr << OutOfMemoryMessage(argv[1], FailedStage(), e.what()) << "\n";
+    return kExitInternal;
+  } catch (const cv::Exception& e) {
+    if (e.code == cv::Error::StsNoMem) {
+      std::cerr << OutOfMemoryMessage(argv[1], FailedStage(), "OpenCV: " + e.err) << "\n";
+    } else {
+      std::cerr << "mcvo " << argv[1] << ": internal error: " << e.what() << "\n";
+    }
+    return kExitInternal;
   } catch (const std::exception& e) {
     if (const int signal_number = CancelSignal(); signal_number != 0) {
       // An error on the way out of a cancelled command (a read interrupted by the signal).

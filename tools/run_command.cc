@@ -9,6 +9,7 @@
 #include "mcvo/pipeline/run.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::tools {
@@ -68,6 +69,7 @@ int RunRun(int argc, const char* const* argv) {
   request.max_frames = max_frames;
   request.version = MCVO_VERSION;
   for (int i = 0; i < argc; ++i) request.command_line += (i > 0 ? " " : "") + std::string(argv[i]);
+  const ScopedStage stage("run --out " + out_path);
   const RunSummary summary = RunPipeline(request);
   return summary.posed_frames > 0 ? kExitOk : kExitNothingPosed;
 }

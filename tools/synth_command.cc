@@ -10,6 +10,7 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/progress.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::tools {
@@ -98,6 +99,7 @@ int RunSynth(int argc, const char* const* argv) {
   options.Check();
 
   ProgressBar bar("mcvo synth", options.frames, "frames");
+  const ScopedStage stage("synth --out " + out_dir);
   const synth::SynthSummary summary = synth::Synthesize(options, out_dir, [&bar](int done, int total) {
     bar.SetTotal(total);
     bar.Update(done);

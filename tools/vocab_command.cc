@@ -18,7 +18,6 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -133,10 +132,8 @@ void ExtractDataset(const DatasetIndex& index, const TrainArgs& args, std::vecto
             (*extractors)[worker].Extract(image, c < index.masks.size() ? index.masks[c] : cv::Mat());
       }
     };
-    std::vector<std::thread> helpers;
-    for (size_t w = 1; w < workers; ++w) helpers.emplace_back(work, w);
-    work(0);
-    for (std::thread& helper : helpers) helper.join();
+    ParallelFor(static_cast<int>(workers), static_cast<int>(workers),
+                [&](int w) { work(static_cast<size_t>(w)); });
     for (cv::Mat& d : per_camera) {
       if (d.empty()) continue;
       out->rows += d.rows;

@@ -8,14 +8,16 @@
 // the output does not depend on the number of threads or on scheduling.
 #include <algorithm>
 #include <chrono>
-#include <cstdint>
 #include <condition_variable>
+#include <cstdint>
 #include <exception>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <system_error>
 #include <thread>
 #include <utility>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -25,6 +27,7 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/parallel.h"
+#include "mcvo/util/stage.h"
 
 namespace mcvo {
 namespace {
@@ -51,7 +54,8 @@ cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera)
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
     const std::string why = WhyNotAFile(path);
-    MCVO_THROW_INPUT(path.string(), ": image file ", why == "does not exist" || why.empty() ? "missing" : why);
+    MCVO_THROW_INPUT(path.string(), ": image file ",
+                     why == "does not exist" || why.empty() ? "missing" : why);
   }
   if (std::filesystem::file_size(path, ec) == 0 && !ec) MCVO_THROW_INPUT(path.string(), ": empty image file (0 bytes)");
   if (const std::optional<ImageHeader> header = ReadImageHeader(path)) {
@@ -106,7 +110,7 @@ struct FrameStream::Impl {
   struct Slot {
     bool ready = false;
     FrameImages frame;
-    std::exception_ptr error;
+    StagedFailure error;
   };
 
   std::vector<DatasetFrame> frames;
@@ -121,10 +125,12 @@ struct FrameStream::Impl {
   int next_claim = 0;                // next frame a worker will decode
   int next_out = 0;                  // next frame Next() returns
   bool stop = false;
-  std::exception_ptr failed;  // set once Next() has thrown: the stream stays stopped
+  StagedFailure failed;  // set once Next() has thrown: the stream stays stopped
   std::vector<std::thread> workers;
+  std::vector<std::string> stages;  // of the thread that made the stream: the workers' outer stages
 
   FrameImages Decode(int i) const {
+    const ScopedStage stage(StrCat("decoding the images of frame ", i));
     const DatasetFrame& source = frames[static_cast<size_t>(i)];
     FrameImages frame;
     frame.index = i;
@@ -143,6 +149,7 @@ struct FrameStream::Impl {
   }
 
   void Work() {
+    const InheritedStages outer(stages);
     const int num_frames = static_cast<int>(frames.size());
     while (true) {
       int i = 0;
@@ -158,7 +165,7 @@ struct FrameStream::Impl {
       try {
         result.frame = Decode(i);
       } catch (...) {
-        result.error = std::current_exception();
+        result.error = CaptureFailure();
       }
       {
         std::lock_guard<std::mutex> lock(mutex);
@@ -197,14 +204,24 @@ FrameStream::FrameStream(const DatasetIndex& index, const FrameStreamOptions& op
   int threads = ResolveThreads(options.threads);
   threads =
       std::clamp(threads, 1, std::max(1, std::min(options.prefetch, static_cast<int>(index.frames.size()))));
-  for (int t = 0; t < threads; ++t) impl_->workers.emplace_back([impl = impl_.get()] { impl->Work(); });
+  impl_->stages = CurrentStageList();
+  try {
+    for (int t = 0; t < threads; ++t) {
+      impl_->workers.push_back(
+          StartThread([&] { return StrCat("image decoder thread ", t + 1, " of ", threads); },
+                      [impl = impl_.get()] { impl->Work(); }));
+    }
+  } catch (...) {
+    impl_->Stop();  // joins the decoders already started
+    throw;
+  }
 }
 
 FrameStream::~FrameStream() { impl_->Stop(); }
 
 std::optional<FrameImages> FrameStream::Next() {
   Impl& impl = *impl_;
-  if (impl.failed) std::rethrow_exception(impl.failed);
+  if (impl.failed) RethrowFailure(impl.failed);
   if (impl.next_out >= static_cast<int>(impl.frames.size())) return std::nullopt;
   Impl::Slot slot;
   {
@@ -218,7 +235,7 @@ std::optional<FrameImages> FrameStream::Next() {
   if (slot.error) {
     impl.failed = slot.error;
     impl.Stop();
-    std::rethrow_exception(slot.error);
+    RethrowFailure(slot.error);
   }
   impl.work_cv.notify_all();
   return std::move(slot.frame);

@@ -30,6 +30,7 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/parallel.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo {
@@ -152,7 +153,10 @@ MultiCameraFrame MultiCameraTracker::Track(int frame_index, int64_t t_ns,
   frame.cameras.resize(n);
   // An exception: the first failing camera's, in camera order.
   ParallelFor(static_cast<int>(n), impl_->threads,
-              [&](size_t c) { frame.cameras[c] = impl_->trackers[c]->Track(images[c]); });
+              [&](size_t c) {
+                const ScopedStage stage(StrCat("camera ", c));
+                frame.cameras[c] = impl_->trackers[c]->Track(images[c]);
+              });
   for (size_t c = 0; c < n; ++c) impl_->trackers[c]->AssignNewIds(&impl_->next_id, &frame.cameras[c]);
 
   const size_t p = impl_->matchers.size();

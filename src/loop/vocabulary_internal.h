@@ -17,6 +17,8 @@
 #include <opencv2/core/mat.hpp>
 
 #include "mcvo/loop/vocabulary.h"
+#include "mcvo/util/error.h"
+#include "mcvo/util/parallel.h"
 
 namespace mcvo {
 
@@ -120,8 +122,14 @@ void ParallelChunks(size_t n, int threads, size_t min_per_thread, Work&& work) {
   }
   std::vector<std::thread> workers;
   workers.reserve(chunks - 1);
-  for (size_t c = 1; c < chunks; ++c) {
-    workers.emplace_back([&work, n, chunks, c] { work(n * c / chunks, n * (c + 1) / chunks); });
+  try {
+    for (size_t c = 1; c < chunks; ++c) {
+      workers.push_back(StartThread([&] { return StrCat("thread ", c + 1, " of ", chunks); },
+                                    [&work, n, chunks, c] { work(n * c / chunks, n * (c + 1) / chunks); }));
+    }
+  } catch (...) {
+    for (std::thread& worker : workers) worker.join();  // their chunks are lost with the exception
+    throw;
   }
   work(size_t{0}, n / chunks);
   for (std::thread& worker : workers) worker.join();

@@ -13,6 +13,8 @@
 
 #include "mcvo/frontend/track_file.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/parallel.h"
+#include "mcvo/util/stage.h"
 
 namespace mcvo {
 namespace {
@@ -36,7 +38,7 @@ class FrameQueue {
     items_.push_back(std::move(item));
     not_empty_.notify_one();
   }
-  void Close(std::exception_ptr error) {
+  void Close(StagedFailure error) {
     std::lock_guard<std::mutex> lock(mutex_);
     closed_ = true;
     error_ = std::move(error);
@@ -61,7 +63,7 @@ class FrameQueue {
       not_full_.notify_one();
       return item;
     }
-    if (error_) std::rethrow_exception(error_);
+    if (error_) RethrowFailure(error_);
     return std::nullopt;
   }
 
@@ -72,7 +74,7 @@ class FrameQueue {
   std::deque<FrontendItem> items_;
   bool closed_ = false;
   bool cancelled_ = false;
-  std::exception_ptr error_;
+  StagedFailure error_;
 };
 
 }  // namespace
@@ -90,12 +92,14 @@ struct FrameSource::Impl {
   Impl(const DatasetIndex& index_in, int threads_in, bool keep_images_in)
       : index(index_in), threads(threads_in), keep_images(keep_images_in) {}
 
-  void Produce(int total_frames) {
-    std::exception_ptr error;
+  void Produce(int total_frames, const std::vector<std::string>& stages) {
+    const InheritedStages outer(stages);
+    StagedFailure error;
     try {
       if (track_reader) {
         int produced = 0;
         while (produced < total_frames && !queue.cancelled()) {
+          const ScopedStage stage(StrCat("frontend: reading tracks of frame ", produced));
           const Clock::time_point start = Clock::now();
           std::optional<MultiCameraFrame> frame = track_reader->Next();
           if (!frame) break;
@@ -118,6 +122,7 @@ struct FrameSource::Impl {
           std::optional<FrameImages> images = stream.Next();
           const double decode_wait = SecondsSince(start);
           if (!images) break;
+          const ScopedStage stage(StrCat("frontend: tracking frame ", images->index));
           const Clock::time_point track_start = Clock::now();
           MultiCameraFrame frame = tracker->Track(images->index, images->t_ns, images->images);
           FrontendItem item;
@@ -135,9 +140,9 @@ struct FrameSource::Impl {
         }
       }
     } catch (...) {
-      error = std::current_exception();
+      error = CaptureFailure();
     }
-    queue.Close(error);
+    queue.Close(std::move(error));
   }
 };
 
@@ -169,7 +174,9 @@ FrameSource::~FrameSource() {
 
 void FrameSource::Start(int frames) {
   MCVO_CHECK(!impl_->producer.joinable());
-  impl_->producer = std::thread([this, frames] { impl_->Produce(frames); });
+  impl_->producer =
+      StartThread([] { return std::string("the frontend thread"); },
+                  [this, frames, stages = CurrentStageList()] { impl_->Produce(frames, stages); });
 }
 
 std::optional<FrontendItem> FrameSource::Next() { return impl_->queue.Pop(); }

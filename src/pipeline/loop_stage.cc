@@ -6,6 +6,7 @@
 #include "mcvo/frontend/cross_camera.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 #include "refine_stage.h"
 #include "relocalise_segments.h"
@@ -36,6 +37,7 @@ LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEsti
 LoopOutcome CloseLoops(const DatasetIndex& index, const std::vector<KeyframeEstimate>& keyframes,
                        LoopCloser* closer_ptr, const LoopImageCache* cache, const LoopOptions& options,
                        bool sample_colors, const std::vector<std::pair<int, int>>& overlapping_pairs) {
+  const ScopedStage stage("loop closure");
   MCVO_CHECK(closer_ptr != nullptr && closer_ptr->num_keyframes() == 0);
   LoopCloser& closer = *closer_ptr;
   LoopOutcome out;

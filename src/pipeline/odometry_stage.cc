@@ -7,6 +7,7 @@
 
 #include "mcvo/pipeline/run.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::pipeline_internal {
@@ -182,6 +183,7 @@ OdometryStage::OdometryStage(const Rig& rig, const PipelineOptions& options, int
 
 void OdometryStage::Consume(Estimator* estimator, ReversePass* reverse, const RigFrameObservations& frame,
                             double frontend_seconds, OdometryOutput* out) {
+  const ScopedStage stage(StrCat("odometry: frame ", frame.frame_index));
   const Clock::time_point start = Clock::now();
   FrameEstimate est = estimator->AddFrame(frame);
   const double backend_seconds = SecondsSince(start);
@@ -208,6 +210,7 @@ void OdometryStage::Consume(Estimator* estimator, ReversePass* reverse, const Ri
 }
 
 void OdometryStage::FinishEstimator(Estimator* estimator, ReversePass* reverse, OdometryOutput* out) {
+  const ScopedStage stage("odometry: finishing the window");
   std::vector<KeyframeEstimate> finished = estimator->Finish();
   if (reverse != nullptr) reverse->AddKeyframes(finished);
   for (KeyframeEstimate& kf : finished) out->keyframes.push_back(std::move(kf));
@@ -307,6 +310,7 @@ OdometryOutput OdometryStage::Finish() {
 // camera that tracked the most features alone, as monocular odometry at an
 // arbitrary scale (estimator.h "Monocular"); kept when it poses anything.
 void OdometryStage::MonocularFallback() {
+  const ScopedStage stage("odometry: monocular fallback");
   if (!out_.poses.empty() || unposed_.empty() || rig_.NumCameras() < 2 ||
       !options_.initializer.monocular_fallback) {
     return;

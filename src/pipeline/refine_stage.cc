@@ -9,6 +9,7 @@
 
 #include "mcvo/loop/pose_graph.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::pipeline_internal {
@@ -143,6 +144,7 @@ std::vector<GlobalBaLandmarkTie> CrossCameraTies(const Rig& rig, const LoopOutco
 RefineOutcome RefineGlobally(const Rig& rig, const GlobalBaOptions& options, const LoopOutcome* loops,
                              const PoseGraphOptions& pose_graph, bool scale_free, SparseMap* map,
                              OdometryOutput* odometry) {
+  const ScopedStage stage("global bundle adjustment");
   RefineOutcome outcome;
   if (!options.enabled || map->keyframes.empty()) return outcome;
   if (scale_free && !options.monocular) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -67,11 +68,57 @@ Kind KindOf(const std::string& file, const fs::path& baseline_file, const fs::pa
   return Kind::kText;
 }
 
-FileComparison CompareFile(const std::string& file, const fs::path& baseline, const fs::path& candidate,
-                           const RegressOptions& options) {
+// The longest detail a report line prints (Clip: escaped, marked as cut).
+constexpr size_t kMaxDetailBytes = 300;
+
+// True when `path`, with its symbolic links resolved, lies inside `root`
+// (resolved likewise), not at it.
+bool ResolvesInside(const fs::path& root, const fs::path& path) {
+  std::error_code ec;
+  const fs::path r = fs::weakly_canonical(root, ec);
+  if (ec) return false;
+  const fs::path p = fs::weakly_canonical(path, ec);
+  if (ec) return false;
+  auto ri = r.begin(), pi = p.begin();
+  for (; ri != r.end(); ++ri, ++pi) {
+    if (ri->empty() && std::next(ri) == r.end()) break;  // a trailing separator of root
+    if (pi == p.end() || *ri != *pi) return false;
+  }
+  return pi != p.end();
+}
+
+// dir/file, when it resolves inside the run folder `dir`; InputError otherwise:
+// regress reads nothing outside the two run folders.
+fs::path InsideRunFolder(const fs::path& dir, const std::string& file) {
+  const fs::path path = dir / file;
+  if (!ResolvesInside(dir, path)) {
+    MCVO_THROW_INPUT(dir.string(), ": ", Clip(file, 200),
+                     " leads outside the run folder (a symbolic link?); regress reads only files inside"
+                     " the run folders");
+  }
+  return path;
+}
+
+// outputs_sha256 names files relative to the run folder: no absolute path,
+// no "..", no control characters (the names are printed).
+void CheckOutputNames(const RunManifest& run, const fs::path& manifest) {
+  for (const auto& [file, hash] : run.outputs_sha256) {
+    const std::string pointer = JoinPath("/outputs_sha256", file);
+    bool ok = !file.empty() && file.front() != '/' && Clip(file, file.size()) == file;
+    for (const fs::path& part : fs::path(file)) ok = ok && part != "..";
+    if (!ok) {
+      MCVO_THROW_INPUT(manifest.string(), ": ", Clip(pointer, 200),
+                       ": not a relative path inside the run folder (absolute paths, \"..\" and control"
+                       " characters are not allowed)");
+    }
+  }
+}
+
+FileComparison CompareFileContents(const std::string& file, const fs::path& baseline,
+                                   const fs::path& candidate, const RegressOptions& options) {
   FileComparison result;
   result.file = file;
-  const fs::path a_path = baseline / file, b_path = candidate / file;
+  const fs::path a_path = InsideRunFolder(baseline, file), b_path = InsideRunFolder(candidate, file);
   std::error_code ec;
   const bool has_a = fs::is_regular_file(a_path, ec), has_b = fs::is_regular_file(b_path, ec);
   if (!has_a || !has_b) {
@@ -123,6 +170,13 @@ FileComparison CompareFile(const std::string& file, const fs::path& baseline, co
   return result;
 }
 
+FileComparison CompareFile(const std::string& file, const fs::path& baseline, const fs::path& candidate,
+                           const RegressOptions& options) {
+  FileComparison result = CompareFileContents(file, baseline, candidate, options);
+  result.detail = Clip(result.detail, kMaxDetailBytes);
+  return result;
+}
+
 RunManifest ReadRunFolderManifest(const fs::path& dir, const std::string& role) {
   const fs::path path = dir / "run.json";
   std::error_code ec;
@@ -130,10 +184,11 @@ RunManifest ReadRunFolderManifest(const fs::path& dir, const std::string& role) 
   if (!fs::is_regular_file(path, ec)) {
     MCVO_THROW_INPUT(dir.string(), ": ", role, " is not a run folder (no run.json)");
   }
-  RunManifest run = RunManifest::Read(path);
+  RunManifest run = RunManifest::Read(InsideRunFolder(dir, "run.json"));
   if (!run.Has("outputs_sha256")) {
     MCVO_THROW_INPUT(path.string(), ": /outputs_sha256: missing (not a run.json of mcvo run)");
   }
+  CheckOutputNames(run, path);
   return run;
 }
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <locale>
 #include <optional>
@@ -32,9 +33,9 @@ constexpr double kRadToDeg = 180.0 / M_PI;
 // Always ignored in JSON: not deterministic, or paths and versions rather
 // than results.
 const char* const kIgnoredJson[] = {
-    "run.json:/timing",        "run.json:/version",      "run.json:/build",     "run.json:/command_line",
-    "run.json:/config_source", "run.json:/dataset/root", "run.json:/outputs_sha256", "*eval.json:/gt/name",
-    "*eval.json:/est/name"};
+    "run.json:/timing",         "run.json:/version",       "run.json:/build",
+    "run.json:/command_line",   "run.json:/config_source", "run.json:/dataset/root",
+    "run.json:/outputs_sha256", "*eval.json:/gt/name",     "*eval.json:/est/name"};
 
 }  // namespace
 
@@ -50,9 +51,43 @@ std::string Short(double value) {
   return out.str();
 }
 
+namespace {
+
+// Bytes of the printable UTF-8 character at text[i] (a multi-byte one only
+// when well formed and not a C1 control), 0 when text[i] must be escaped.
+size_t PrintableBytes(std::string_view text, size_t i) {
+  const unsigned char c = static_cast<unsigned char>(text[i]);
+  if (c >= 0x20 && c < 0x7f) return 1;
+  const size_t n = c >= 0xc2 && c <= 0xdf ? 2 : c >= 0xe0 && c <= 0xef ? 3 : c >= 0xf0 && c <= 0xf4 ? 4 : 0;
+  if (n == 0 || i + n > text.size()) return 0;
+  for (size_t k = 1; k < n; ++k) {
+    if ((static_cast<unsigned char>(text[i + k]) & 0xc0) != 0x80) return 0;
+  }
+  if (c == 0xc2 && static_cast<unsigned char>(text[i + 1]) < 0xa0) return 0;  // U+0080..U+009F
+  return n;
+}
+
+}  // namespace
+
 std::string Clip(std::string_view text, size_t n) {
-  if (text.size() <= n) return std::string(text);
-  return std::string(text.substr(0, n)) + "...";
+  std::string out;
+  size_t i = 0;
+  while (i < text.size()) {
+    const size_t bytes = PrintableBytes(text, i);
+    std::string piece;
+    if (bytes > 0) {
+      piece = std::string(text.substr(i, bytes));
+    } else {
+      char escaped[8];
+      std::snprintf(escaped, sizeof(escaped), "\\x%02x", static_cast<unsigned char>(text[i]));
+      piece = escaped;
+    }
+    if (out.size() + piece.size() > n) break;
+    out += piece;
+    i += std::max<size_t>(bytes, 1);
+  }
+  if (i < text.size()) out += StrCat("...[cut: ", text.size() - i, " more bytes]");
+  return out;
 }
 
 std::vector<std::string_view> Lines(std::string_view text) {

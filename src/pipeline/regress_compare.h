@@ -20,8 +20,11 @@ struct Outcome {
 
 // fnmatch(3) of a file name or JSON pointer pattern.
 bool Glob(const std::string& pattern, const std::string& text);
-// A number in few characters; text clipped to n characters.
+// A number in few characters.
 std::string Short(double value);
+// Text of a file, safe to print on one line: at most n bytes of it, bytes
+// that are not printable UTF-8 (controls, escapes, broken sequences) as
+// \xNN, and when it does not all fit, "...[cut: K more bytes]".
 std::string Clip(std::string_view text, size_t n = 60);
 // "line N: <a> | <b>" for the first line that differs.
 std::string FirstDifferingLine(const std::string& a, const std::string& b);

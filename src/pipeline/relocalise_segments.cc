@@ -16,6 +16,7 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/parallel.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::pipeline_internal {
@@ -266,6 +267,7 @@ LoopKeyframe ToLoopKeyframe(const DatasetIndex& index, const KeyframeEstimate& k
 
 RelocalisationSummary RelocaliseSegments(const DatasetIndex& index, const Vocabulary& vocabulary,
                                          const LoopOptions& options, int threads, OdometryOutput* odometry) {
+  const ScopedStage stage("relocalising segments");
   RelocalisationSummary summary;
   if (!options.relocalise || odometry->segments < 2) return summary;
   // Segments in order, each located against the one before it as that one

@@ -23,6 +23,7 @@
 #include "mcvo/util/output_folder.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/sha256.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::pipeline_internal {
@@ -506,6 +507,7 @@ SparseMap BuildSparseMap(const DatasetIndex& index, const std::vector<KeyframeEs
 }
 
 void WriteRunOutputs(const RunOutputsInput& in, const std::filesystem::path& dir, RunSummary* summary) {
+  const ScopedStage stage("writing the outputs");
   const RunRequest& request = *in.request;
   const PipelineOptions& options = request.options;
   const DatasetIndex& index = *in.index;

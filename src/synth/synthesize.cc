@@ -27,6 +27,7 @@
 #include "mcvo/util/cancel.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/output_folder.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::synth {
@@ -352,6 +353,7 @@ SynthSummary Synthesize(const SynthOptions& options, const std::filesystem::path
     FrameTableRow row;
     row.t_ns = options.first_t_ns + t_rel_ns;
     for (int c = 0; c < rig.NumCameras(); ++c) {
+      const ScopedStage stage(StrCat("synth: rendering frame ", frame, " of camera ", rig.cameras[c].name));
       const cv::Mat image = RenderImage(world.scene, rig, c, world_from_rig, t_rel_ns, frame, options.render);
       const std::string relative = "images/" + rig.cameras[c].name + "/" + FrameFileName(frame);
       WritePng(out.staging() / relative, image);

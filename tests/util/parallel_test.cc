@@ -1,12 +1,15 @@
 #include "mcvo/util/parallel.h"
 
 #include <atomic>
+#include <chrono>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
+
+#include "mcvo/util/error.h"
 
 namespace mcvo {
 namespace {
@@ -56,6 +59,45 @@ TEST(Parallel, AnExceptionReachesTheCallerFromTheLowestFailingIndex) {
       EXPECT_EQ(std::string(e.what()), "item 37") << "threads " << threads;
     }
   }
+}
+
+// The system refuses threads after the first `n` (internal::LimitThreadStartsForTest).
+struct ThreadLimit {
+  explicit ThreadLimit(int n) { internal::LimitThreadStartsForTest(n); }
+  ~ThreadLimit() { internal::LimitThreadStartsForTest(-1); }
+};
+
+TEST(Parallel, ARefusedThreadIsAResourceErrorAfterTheStartedOnesAreJoined) {
+  for (int started : {0, 1, 5}) {
+    std::atomic<int> calls{0};
+    try {
+      const ThreadLimit limit(started);
+      ParallelFor(100, 8, [&](int) {
+        ++calls;
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      });
+      ADD_FAILURE() << "no exception with " << started << " threads started";
+    } catch (const ResourceError& e) {
+      // Thread 1 is the caller's: the refused one is number started + 2.
+      EXPECT_EQ(std::string(e.what()), "cannot start thread " + std::to_string(started + 2) +
+                                           " of 8: Resource temporarily unavailable (the process or user "
+                                           "thread limit, ulimit -u, or memory); try --threads 1");
+    }
+    // Had a started thread been left running, `calls` would still change (or
+    // the std::thread destructor would have terminated the test).
+    const int after = calls.load();
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ(calls.load(), after);
+  }
+  // Without the limit, the same call works.
+  std::atomic<int> calls{0};
+  ParallelFor(100, 8, [&](int) { ++calls; });
+  EXPECT_EQ(calls.load(), 100);
+}
+
+TEST(Parallel, ARefusedThreadInsideABodyReachesTheCaller) {
+  const ThreadLimit limit(3);
+  EXPECT_THROW(ParallelFor(2, 2, [](int) { ParallelFor(8, 8, [](int) {}); }), ResourceError);
 }
 
 TEST(Parallel, ThreadCountsResolveToTheCoresThisProcessMayUse) {

@@ -29,6 +29,7 @@
 #include "mcvo/initializer/initializer.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
+#include "mcvo/util/parallel.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo {
@@ -210,14 +211,10 @@ int Main(int argc, char** argv) {
   }
   const auto start = std::chrono::steady_clock::now();
   std::vector<Outcome> outcomes(jobs.size());
-  std::atomic<size_t> next{0};
-  auto worker = [&] {
-    for (size_t i = next++; i < jobs.size(); i = next++)
-      outcomes[i] = RunJob(jobs[i], rigs.at(jobs[i].rig), settings);
-  };
-  std::vector<std::thread> pool;
-  for (int t = 0; t < std::max(1, threads); ++t) pool.emplace_back(worker);
-  for (std::thread& t : pool) t.join();
+  ParallelFor(static_cast<int>(jobs.size()), std::max(1, threads), [&](int i) {
+    const size_t j = static_cast<size_t>(i);
+    outcomes[j] = RunJob(jobs[j], rigs.at(jobs[j].rig), settings);
+  });
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   std::ostringstream csv;

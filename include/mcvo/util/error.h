@@ -4,6 +4,8 @@
 //  * Bad input (file, calibration...) -> throw InputError naming the file and the
 //                                        line or JSON path; tools/ exits with 3.
 //  * Bad command-line use             -> throw UsageError; tools/ exits with 2.
+//  * The system refuses a resource    -> throw ResourceError (one line, saying
+//    (a thread: ulimit -u)               which limit and what to try); exit 1.
 //  * Expected algorithmic failure     -> std::optional / status, never an exception.
 //
 // The library never calls std::exit.
@@ -35,6 +37,13 @@ class InputError : public std::runtime_error {
 
 // The command line is invalid (unknown flag, missing argument).
 class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// The system refused a resource the run needs (a thread: the process or user
+// thread limit). what() is one line saying what was refused and what to try.
+class ResourceError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
