@@ -25,6 +25,7 @@
 #include "mcvo/util/logging.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/sha256.h"
+#include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo {
@@ -253,6 +254,13 @@ BatchRunResult ExecuteRun(const BatchRunSpec& spec, const BatchOptions& options,
     ReadRunNumbers(run_dir, &result);
   } catch (const Cancelled&) {
     throw;  // the whole batch stops (util/cancel.h)
+  } catch (const std::bad_alloc& e) {
+    // Out of memory: the run fails, named with its stage (util/stage.h); the others go on.
+    const std::string stage = FailedStage();
+    result = BatchRunResult();
+    result.name = spec.name;
+    result.status = BatchRunStatus::kFailed;
+    result.note = OneLine(StrCat("out of memory", stage.empty() ? std::string() : " in " + stage, " (", e.what(), ")"));
   } catch (const std::exception& e) {
     result = BatchRunResult();
     result.name = spec.name;
