@@ -3,9 +3,9 @@
 #include <sched.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <atomic>
 #include <cctype>
+#include <cstdlib>
 #include <exception>
 #include <mutex>
 #include <set>
@@ -19,11 +19,11 @@
 #include "mcvo/pipeline/run.h"
 #include "mcvo/pipeline/run_manifest.h"
 #include "mcvo/util/blas.h"
-#include "mcvo/util/error.h"
 #include "mcvo/util/cancel.h"
+#include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
-#include "mcvo/util/output_folder.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/output_folder.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/sha256.h"
 #include "mcvo/util/strings.h"
@@ -413,8 +413,9 @@ BatchManifest ParseBatchManifest(const std::string& json_text, const std::string
       spec.dataset.format = reader.String(dataset["format"], JoinPath(dpath, "format"));
       const std::vector<std::string> formats = {"auto", "generic", "kitti360", "kitti", "euroc", "kalibr"};
       if (std::find(formats.begin(), formats.end(), spec.dataset.format) == formats.end()) {
-        reader.Fail(JoinPath(dpath, "format"), "unknown format \"" + spec.dataset.format +
-                                                   "\" (known: auto, generic, kitti360, kitti, euroc, kalibr)");
+        reader.Fail(JoinPath(dpath, "format"),
+                    "unknown format \"" + spec.dataset.format +
+                        "\" (known: auto, generic, kitti360, kitti, euroc, kalibr)");
       }
     }
     if (dataset.contains("sequence")) {
@@ -566,7 +567,8 @@ BatchReport RunBatch(const BatchManifest& manifest, const BatchOptions& options)
     ParallelFor(static_cast<int>(selected.size()), std::max(1, options.jobs), [&](int run) {
       const size_t k = static_cast<size_t>(run);
       const BatchRunSpec& spec = manifest.runs[selected[k]];
-      const std::string position = StrCat("run ", selected[k] + 1, " of the manifest's ", manifest.runs.size());
+      const std::string position =
+          StrCat("run ", selected[k] + 1, " of the manifest's ", manifest.runs.size());
       const std::string command_line =
           StrCat(options.command_line.empty() ? std::string("mcvo batch") : options.command_line, " [run ",
                  spec.name, "]");
