@@ -64,7 +64,20 @@ int RunBatchCommand(int argc, const char* const* argv) {
   }
   options.out_dir = out_path;
 
-  const BatchReport report = RunBatch(manifest, options);
+  BatchReport report;
+  try {
+    report = RunBatch(manifest, options);
+  } catch (const BatchCancelled& e) {
+    // Cancelled (SIGTERM from scancel or a time limit, Ctrl-C): the summary
+    // still says what finished and what did not, then the exit is 128 + signal.
+    try {
+      const std::filesystem::path summary = WriteBatchSummary(options.out_dir, e.report());
+      MCVO_LOG(kWarning, "batch: cancelled; wrote ", summary.string());
+    } catch (const std::exception& write_error) {
+      MCVO_LOG(kWarning, "batch: cancelled; cannot write the summary: ", write_error.what());
+    }
+    throw;
+  }
   const std::filesystem::path summary = WriteBatchSummary(options.out_dir, report);
   std::cout << BatchSummaryMarkdown(report);
   MCVO_LOG(kInfo, "batch: wrote ", summary.string(), " and ", summary.parent_path().string(), "/",

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cctype>
+#include <cstdlib>
 #include <exception>
 #include <mutex>
 #include <set>
@@ -18,11 +19,11 @@
 #include "mcvo/pipeline/run.h"
 #include "mcvo/pipeline/run_manifest.h"
 #include "mcvo/util/blas.h"
-#include "mcvo/util/error.h"
 #include "mcvo/util/cancel.h"
+#include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
-#include "mcvo/util/output_folder.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/output_folder.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/sha256.h"
 #include "mcvo/util/stage.h"
@@ -197,7 +198,8 @@ std::optional<BatchRunResult> ReadRecord(const fs::path& out_dir, const std::str
     BatchRunResult result;
     result.name = name;
     const std::string status = record.value("status", "");
-    for (BatchRunStatus s : {BatchRunStatus::kOk, BatchRunStatus::kSkipped, BatchRunStatus::kFailed}) {
+    for (BatchRunStatus s :
+         {BatchRunStatus::kOk, BatchRunStatus::kSkipped, BatchRunStatus::kFailed, BatchRunStatus::kNotRun}) {
       if (status == BatchRunStatusName(s)) {
         result.status = s;
         result.note = record.value("note", "");
@@ -211,7 +213,7 @@ std::optional<BatchRunResult> ReadRecord(const fs::path& out_dir, const std::str
 
 // Runs (or skips) one run; never throws.
 BatchRunResult ExecuteRun(const BatchRunSpec& spec, const BatchOptions& options,
-                          const std::string& command_line) {
+                          const std::string& command_line, const std::string& position) {
   BatchRunResult result;
   result.name = spec.name;
   const fs::path run_dir = options.out_dir / spec.name;
@@ -228,6 +230,7 @@ BatchRunResult ExecuteRun(const BatchRunSpec& spec, const BatchOptions& options,
                        " marker: mcvo replaces only folders it wrote (move it away or rename the run)");
     }
     if (!options.force && fs::is_directory(run_dir, ec) && !fs::is_empty(run_dir, ec)) {
+      MCVO_LOG(kInfo, "batch: ", spec.name, ": checking whether it is up to date (", position, ")");
       const std::optional<std::string> reason = RunOutOfDateReason(run_dir, spec, pipeline);
       if (!reason) {
         result.status = BatchRunStatus::kSkipped;
@@ -249,6 +252,7 @@ BatchRunResult ExecuteRun(const BatchRunSpec& spec, const BatchOptions& options,
     request.max_frames = spec.max_frames;
     request.command_line = command_line;
     request.version = options.version;
+    MCVO_LOG(kInfo, "batch: ", spec.name, ": started (", position, ")");
     RunPipeline(request);
     result.status = BatchRunStatus::kOk;
     ReadRunNumbers(run_dir, &result);
@@ -262,10 +266,20 @@ BatchRunResult ExecuteRun(const BatchRunSpec& spec, const BatchOptions& options,
     result.status = BatchRunStatus::kFailed;
     result.note = OneLine(StrCat("out of memory", stage.empty() ? std::string() : " in " + stage, " (", e.what(), ")"));
   } catch (const std::exception& e) {
+    // An error on the way out of a cancelled run (a read interrupted by the signal).
+    if (const int signal_number = CancelSignal(); signal_number != 0) throw Cancelled(signal_number);
     result = BatchRunResult();
     result.name = spec.name;
     result.status = BatchRunStatus::kFailed;
     result.note = OneLine(e.what());
+    // Another process (a second submission of the same batch, another shard
+    // of an overlapping manifest) holds the run folder's lock
+    // (util/output_folder.h): said first, so that the log and the summary
+    // name it.
+    if (result.note.find(": is being written by another mcvo") != std::string::npos) {
+      result.being_written_elsewhere = true;
+      result.note = "being written by another mcvo: " + result.note;
+    }
   }
   return result;
 }
@@ -286,7 +300,7 @@ BatchRunResult GatherRun(const BatchRunSpec& spec, const BatchOptions& options) 
     result.note = "no run folder";
     return result;
   }
-  if (result.status == BatchRunStatus::kFailed) return result;
+  if (result.status == BatchRunStatus::kFailed || result.status == BatchRunStatus::kNotRun) return result;
   if (!has_run) {
     result.status = BatchRunStatus::kNotRun;
     result.note = "run folder missing";
@@ -306,6 +320,14 @@ BatchRunResult GatherRun(const BatchRunSpec& spec, const BatchOptions& options) 
   }
   ReadRunNumbers(run_dir, &result);
   return result;
+}
+
+// Where WriteBatchSummary writes the CSV (the Markdown beside it, .md).
+fs::path SummaryCsvPath(const fs::path& out_dir, const BatchShard& shard, bool summary_only) {
+  if (shard.count > 1 && !summary_only) {
+    return BatchDir(out_dir) / StrCat("summary_shard_", shard.index, "_of_", shard.count, ".csv");
+  }
+  return out_dir / "summary.csv";
 }
 
 std::string MarkdownCell(const std::string& text) {
@@ -358,6 +380,9 @@ const char* BatchRunStatusName(BatchRunStatus status) {
   return "";
 }
 
+BatchCancelled::BatchCancelled(int signal_number, BatchReport report)
+    : Cancelled(signal_number), report_(std::move(report)) {}
+
 int BatchReport::Count(BatchRunStatus status) const {
   return static_cast<int>(
       std::count_if(runs.begin(), runs.end(), [&](const BatchRunResult& r) { return r.status == status; }));
@@ -396,8 +421,9 @@ BatchManifest ParseBatchManifest(const std::string& json_text, const std::string
       spec.dataset.format = reader.String(dataset["format"], JoinPath(dpath, "format"));
       const std::vector<std::string> formats = {"auto", "generic", "kitti360", "kitti", "euroc", "kalibr"};
       if (std::find(formats.begin(), formats.end(), spec.dataset.format) == formats.end()) {
-        reader.Fail(JoinPath(dpath, "format"), "unknown format \"" + spec.dataset.format +
-                                                   "\" (known: auto, generic, kitti360, kitti, euroc, kalibr)");
+        reader.Fail(JoinPath(dpath, "format"),
+                    "unknown format \"" + spec.dataset.format +
+                        "\" (known: auto, generic, kitti360, kitti, euroc, kalibr)");
       }
     }
     if (dataset.contains("sequence")) {
@@ -453,13 +479,25 @@ BatchShard ParseBatchShard(const std::string& text) {
   return {static_cast<int>(*k), static_cast<int>(*n)};
 }
 
+int BatchCpus() {
+  const int affinity = AvailableCores();
+  const char* slurm = std::getenv("SLURM_CPUS_PER_TASK");
+  if (slurm == nullptr) return affinity;
+  const std::optional<int64_t> cpus = ParseInt64(Trim(slurm));
+  if (!cpus || *cpus < 1) return affinity;
+  // Under task/none (no binding) the affinity mask is the whole node: the
+  // allocation is what Slurm says. Under task/affinity or cgroup the mask
+  // is the allocation itself; never more than the mask.
+  return static_cast<int>(std::min<int64_t>(*cpus, affinity));
+}
+
 PipelineOptions BatchRunOptions(const BatchRunSpec& spec, int jobs) {
   PipelineOptions options = spec.config.empty() ? PipelineOptions() : ReadPipelineOptions(spec.config);
   if (spec.threads >= 0) {
     options.runtime.threads = spec.threads;
   } else if (options.runtime.threads == 0) {
     // The CPUs this process may use (a Slurm task's allocation), not the machine's.
-    options.runtime.threads = std::max(1, AvailableCores() / std::max(1, jobs));
+    options.runtime.threads = std::max(1, BatchCpus() / std::max(1, jobs));
   }
   options.Check();
   return options;
@@ -506,37 +544,70 @@ BatchReport RunBatch(const BatchManifest& manifest, const BatchOptions& options)
     return report;
   }
   CreateDirectories(BatchDir(options.out_dir) / "runs");
+  {
+    // The summary this batch will write, removed first: a batch killed before
+    // it writes one (SIGKILL, a node lost) leaves none rather than a stale one.
+    fs::path path = SummaryCsvPath(options.out_dir, options.shard, false);
+    std::error_code ec;
+    fs::remove(path, ec);
+    fs::remove(path.replace_extension(".md"), ec);
+  }
   std::vector<int> selected;
   for (int i = 0; i < static_cast<int>(manifest.runs.size()); ++i) {
     if (options.shard.Contains(i)) selected.push_back(i);
   }
   report.runs.resize(selected.size());
+  for (size_t k = 0; k < selected.size(); ++k) {
+    report.runs[k].name = manifest.runs[selected[k]].name;
+    report.runs[k].note = "cancelled before it started";
+  }
   std::atomic<int> finished{0};
   // Runs in manifest order to `jobs` workers (util/parallel.h); each writes
   // its own slot of report.runs.
-  ParallelFor(static_cast<int>(selected.size()), std::max(1, options.jobs), [&](int run) {
-    const size_t k = static_cast<size_t>(run);
-    const BatchRunSpec& spec = manifest.runs[selected[k]];
-    MCVO_LOG(kInfo, "batch: ", spec.name, ": started (run ", selected[k] + 1, " of the manifest's ",
-             manifest.runs.size(), ")");
-    const std::string command_line =
-        StrCat(options.command_line.empty() ? std::string("mcvo batch") : options.command_line, " [run ",
-               spec.name, "]");
-    BatchRunResult result = ExecuteRun(spec, options, command_line);
+  auto record = [&](const BatchRunResult& result) {
     try {
       WriteRecord(options.out_dir, result);
     } catch (const std::exception& e) {
-      MCVO_LOG(kWarning, "batch: ", spec.name, ": cannot write its status record: ", OneLine(e.what()));
+      MCVO_LOG(kWarning, "batch: ", result.name, ": cannot write its status record: ", OneLine(e.what()));
     }
-    const std::string line =
-        StrCat("batch: [", ++finished, "/", selected.size(), "] ", spec.name, ": ", StatusText(result));
-    if (result.status == BatchRunStatus::kFailed) {
-      MCVO_LOG(kError, line);
-    } else {
-      MCVO_LOG(kInfo, line);
-    }
-    report.runs[k] = std::move(result);
-  });
+  };
+  try {
+    ParallelFor(static_cast<int>(selected.size()), std::max(1, options.jobs), [&](int run) {
+      const size_t k = static_cast<size_t>(run);
+      const BatchRunSpec& spec = manifest.runs[selected[k]];
+      const std::string position =
+          StrCat("run ", selected[k] + 1, " of the manifest's ", manifest.runs.size());
+      const std::string command_line =
+          StrCat(options.command_line.empty() ? std::string("mcvo batch") : options.command_line, " [run ",
+                 spec.name, "]");
+      BatchRunResult result;
+      try {
+        result = ExecuteRun(spec, options, command_line, position);
+      } catch (const Cancelled& e) {
+        // The attempt did not finish: its record says so (not a stale "ok"
+        // or "failed" of an earlier attempt); the folder, if any, is the
+        // earlier run's, untouched (the staging folder is gone).
+        result.name = spec.name;
+        result.status = BatchRunStatus::kNotRun;
+        result.note = StrCat("cancelled by signal ", e.signal_number(), " while running");
+        record(result);
+        report.runs[k] = std::move(result);
+        throw;
+      }
+      // A run another process is writing is that process's to record.
+      if (!result.being_written_elsewhere) record(result);
+      const std::string line =
+          StrCat("batch: [", ++finished, "/", selected.size(), "] ", spec.name, ": ", StatusText(result));
+      if (result.status == BatchRunStatus::kFailed) {
+        MCVO_LOG(kError, line);
+      } else {
+        MCVO_LOG(kInfo, line);
+      }
+      report.runs[k] = std::move(result);
+    });
+  } catch (const Cancelled& e) {
+    throw BatchCancelled(e.signal_number(), std::move(report));
+  }
   return report;
 }
 
@@ -597,16 +668,12 @@ std::string BatchSummaryMarkdown(const BatchReport& report) {
 }
 
 fs::path WriteBatchSummary(const fs::path& out_dir, const BatchReport& report) {
-  fs::path dir = out_dir;
-  std::string stem = "summary";
-  if (report.shard.count > 1 && !report.summary_only) {
-    dir = BatchDir(out_dir);
-    stem = StrCat("summary_shard_", report.shard.index, "_of_", report.shard.count);
-  }
-  CreateDirectories(dir);
-  WriteFileAtomic(dir / (stem + ".md"), BatchSummaryMarkdown(report));
-  WriteFileAtomic(dir / (stem + ".csv"), BatchSummaryCsv(report));
-  return dir / (stem + ".csv");
+  const fs::path csv = SummaryCsvPath(out_dir, report.shard, report.summary_only);
+  CreateDirectories(csv.parent_path());
+  fs::path md = csv;
+  WriteFileAtomic(md.replace_extension(".md"), BatchSummaryMarkdown(report));
+  WriteFileAtomic(csv, BatchSummaryCsv(report));
+  return csv;
 }
 
 }  // namespace mcvo

@@ -22,6 +22,7 @@
 #include "mcvo/util/blas.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
+#include "mcvo/util/parallel.h"
 #include "mcvo/util/sha256.h"
 #include "mcvo/util/strings.h"
 #include "test_temp_dir.h"
@@ -176,6 +177,28 @@ TEST(BatchShard, ParsesAndPartitionsTheRuns) {
         owners += ParseBatchShard(std::to_string(k) + "/" + std::to_string(n)).Contains(run);
       EXPECT_EQ(owners, 1) << run << " of " << n;
     }
+  }
+}
+
+// A Slurm task's allocation comes from SLURM_CPUS_PER_TASK (under task/none
+// the affinity mask is the whole node), never more than the mask.
+TEST(BatchRun, CpusPreferSlurmCpusPerTask) {
+  const char* saved = std::getenv("SLURM_CPUS_PER_TASK");
+  const std::string saved_value = saved ? saved : "";
+  ::unsetenv("SLURM_CPUS_PER_TASK");
+  EXPECT_EQ(BatchCpus(), AvailableCores());
+  ::setenv("SLURM_CPUS_PER_TASK", "1", 1);
+  EXPECT_EQ(BatchCpus(), 1);
+  BatchRunSpec spec;
+  EXPECT_EQ(BatchRunOptions(spec, 1).runtime.threads, 1);  // the defaults say 0: all CPUs of the task
+  ::setenv("SLURM_CPUS_PER_TASK", "100000", 1);
+  EXPECT_EQ(BatchCpus(), AvailableCores());
+  ::setenv("SLURM_CPUS_PER_TASK", "two", 1);
+  EXPECT_EQ(BatchCpus(), AvailableCores());
+  if (saved) {
+    ::setenv("SLURM_CPUS_PER_TASK", saved_value.c_str(), 1);
+  } else {
+    ::unsetenv("SLURM_CPUS_PER_TASK");
   }
 }
 
@@ -352,7 +375,8 @@ TEST(BatchRun, AFailingRunDoesNotStopTheOthers) {
   EXPECT_NE(report.runs[2].note.find("bad.json"), std::string::npos) << report.runs[2].note;
   EXPECT_NE(report.runs[2].note.find("window_sise"), std::string::npos) << report.runs[2].note;
   EXPECT_EQ(report.runs[3].status, BatchRunStatus::kFailed);
-  EXPECT_NE(report.runs[3].note.find("holds no .mcvo-output marker"), std::string::npos) << report.runs[3].note;
+  EXPECT_NE(report.runs[3].note.find("holds no .mcvo-output marker"), std::string::npos)
+      << report.runs[3].note;
   EXPECT_TRUE(fs::exists(options.out_dir / "last" / "mine.txt"));
   EXPECT_EQ(report.Count(BatchRunStatus::kFailed), 3);
   EXPECT_TRUE(fs::is_regular_file(options.out_dir / "first" / "run.json"));

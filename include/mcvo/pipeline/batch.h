@@ -10,7 +10,8 @@
 //   <out>/<name>/                the run's folder, as `mcvo run --out` writes it
 //   <out>/summary.csv, summary.md one row per run of the manifest, in manifest order
 //   <out>/.batch/runs/<name>.json the status of the last attempt at that run
-//                                 (ok, skipped, failed and why): what a later
+//                                 (ok, skipped, failed and why, not run when
+//                                 it was cancelled): what a later
 //                                 `--summary-only` gathers from all shards
 //   <out>/.batch/summary_shard_K_of_N.{csv,md}  the summary of one shard
 //
@@ -28,6 +29,7 @@
 
 #include "mcvo/config/pipeline_options.h"
 #include "mcvo/dataset/dataset.h"
+#include "mcvo/util/cancel.h"
 
 namespace mcvo {
 
@@ -78,7 +80,7 @@ enum class BatchRunStatus {
   kOk,       // ran and finished
   kSkipped,  // up to date: not run again
   kFailed,   // bad input or an exception; `error` says why
-  kNotRun,   // another shard's run, or (summary only) no trace of it in <out>
+  kNotRun,   // another shard's run, cancelled, or (summary only) no trace of it in <out>
   kStale,    // summary only: the folder's run.json is from another config
 };
 // "ok", "skipped", "failed", "not run", "stale".
@@ -104,6 +106,9 @@ struct BatchRunResult {
   double rpe_translation_percent = 0.0;    // mean over the RPE lengths
   double rpe_rotation_deg_per_100m = 0.0;  // mean over the RPE lengths
   double frames_per_second = 0.0;          // wall clock: not deterministic
+  // Failed because another process holds the run folder's lock
+  // (util/output_folder.h): that process records the run, this one does not.
+  bool being_written_elsewhere = false;
 };
 
 struct BatchReport {
@@ -113,15 +118,39 @@ struct BatchReport {
   int Count(BatchRunStatus status) const;
 };
 
+// Thrown by RunBatch when SIGINT / SIGTERM stopped it (util/cancel.h): a
+// Cancelled that carries the report so far, the runs that did not finish
+// (the one cancelled while running, those not started) as kNotRun with a
+// note, so that the caller can still write the (shard's) summary.
+class BatchCancelled : public Cancelled {
+ public:
+  BatchCancelled(int signal_number, BatchReport report);
+  const BatchReport& report() const { return report_; }
+
+ private:
+  BatchReport report_;
+};
+
 // Runs the manifest's runs of options.shard, options.jobs at a time, each into
 // <out>/<name> through RunPipeline. A run that fails is recorded with its
-// one-line error and the others go on. Throws only for a bad output folder.
+// one-line error and the others go on; a run whose folder another process is
+// writing (it holds the folder's lock) fails at once with the note "being
+// written by another mcvo: ..." and leaves that process's record alone.
+// Logs "<name>: checking whether it is up to date" before the check of a run
+// that has a folder, "<name>: started" only when the run really runs, and one
+// line with the outcome. Throws for a bad output folder, and BatchCancelled
+// when cancelled (the run being cancelled is recorded "not run").
 BatchReport RunBatch(const BatchManifest& manifest, const BatchOptions& options);
+
+// The CPUs a batch shares among its runs: $SLURM_CPUS_PER_TASK when set (a
+// positive integer; a Slurm task's allocation, also under task/none where
+// the task's affinity mask is the whole node), capped by the CPUs this
+// process may run on (its affinity mask); else that mask.
+int BatchCpus();
 
 // The options a run uses: its config file (or the defaults) with the run's
 // thread count; without one, a config that says 0 (all cores) gets
-// max(1, cpus / jobs), cpus being the CPUs this process may run on (its
-// affinity mask: a Slurm task's allocation), so that `jobs` runs share them.
+// max(1, BatchCpus() / jobs), so that `jobs` runs share the CPUs.
 // Outputs do not depend on the thread count. Throws InputError for a bad
 // config.
 PipelineOptions BatchRunOptions(const BatchRunSpec& spec, int jobs);
@@ -135,10 +164,10 @@ PipelineOptions BatchRunOptions(const BatchRunSpec& spec, int jobs);
 std::optional<std::string> RunOutOfDateReason(const std::filesystem::path& run_dir, const BatchRunSpec& spec,
                                               const PipelineOptions& options);
 
-// The summary table: CSV (name,status,note,frames,posed_frames,ate_rmse_m,
-// ate_percent_of_path,rpe_translation_percent,rpe_rotation_deg_per_100m,
-// scale_error_percent,frames_per_second; empty cells where there is no value)
-// and Markdown.
+// The summary table: CSV (name,status,note,frames,posed_frames,segments,
+// warning,ate_rmse_m,ate_percent_of_path,rpe_translation_percent,
+// rpe_rotation_deg_per_100m,scale_error_percent,frames_per_second; empty
+// cells where there is no value) and Markdown.
 std::string BatchSummaryCsv(const BatchReport& report);
 std::string BatchSummaryMarkdown(const BatchReport& report);
 // Writes summary.csv and summary.md into out_dir (shard runs:
