@@ -19,9 +19,12 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # becomes the system BLAS (Debian's alternatives) that CHOLMOD factorises
 # the global BA with: about 4x faster than ATLAS, one thread (mcvo/util/blas.h).
 # slurm-wlm and munge: the cluster test starts a one-node Slurm (tests/cluster/).
+# librosbag-storage-dev and the ROS message headers read ROS1 bags (--format
+# rosbag); no ROS installation is needed.
 DEB_PACKAGES := build-essential cmake pkg-config git ca-certificates \
   libeigen3-dev libceres-dev libsuitesparse-dev libopenblas0-serial libssl-dev libgoogle-glog-dev libgflags-dev \
   libopencv-dev libopencv-contrib-dev libdeflate-dev nlohmann-json3-dev libyaml-cpp-dev \
+  librosbag-storage-dev libsensor-msgs-dev libgeometry-msgs-dev libnav-msgs-dev \
   libgtest-dev libgmock-dev libopengv-dev colmap chromium \
   clang-format clang-tidy clang libclang-rt-14-dev slurm-wlm munge
 

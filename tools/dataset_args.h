@@ -1,6 +1,7 @@
 // The dataset flags shared by the subcommands that open a dataset (`mcvo
 // info`, `mcvo track`, ...): --dataset, --format, --sequence, --cameras,
-// --skip-incomplete, parsed into DatasetOptions the same way everywhere.
+// --skip-incomplete, and for ROS bags --calib, --topics, --gt-topic, --gt,
+// parsed into DatasetOptions the same way everywhere.
 #pragma once
 
 #include <string>
@@ -16,10 +17,15 @@ struct DatasetArgs {
   std::string sequence;
   std::string cameras;  // comma-separated names; empty: all
   bool skip_incomplete = false;
+  std::string calib;     // rosbag: camchain.yaml or rig.json
+  std::string topics;    // rosbag: camera=topic,...
+  std::string gt_topic;  // rosbag: ground-truth pose topic
+  std::string gt;        // rosbag: ground-truth trajectory file
 };
 
 // The flags besides --dataset, for commands that reject them without it.
-inline constexpr const char* kDatasetDetailFlags[] = {"format", "sequence", "cameras", "skip-incomplete"};
+inline constexpr const char* kDatasetDetailFlags[] = {"format", "sequence", "cameras",  "skip-incomplete",
+                                                      "calib",  "topics",   "gt-topic", "gt"};
 
 // Adds the dataset flags to `args`, writing into *values.
 void AddDatasetArgs(ArgParser* args, DatasetArgs* values, bool dataset_required);

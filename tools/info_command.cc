@@ -253,7 +253,8 @@ int RunInfo(int argc, const char* const* argv) {
       "examples: mcvo info --rig config/rigs/kitti360.json\n"
       "          mcvo info --dataset KITTI-360 --sequence 2013_05_28_drive_0000_sync\n"
       "          mcvo info --dataset KITTI/dataset --sequence 06 --cameras image_02,image_03\n"
-      "          mcvo info --dataset seq/kitti360 --decode --threads 2\n");
+      "          mcvo info --dataset seq/kitti360 --decode --threads 2\n"
+      "          mcvo info --dataset multicam.bag --calib camchain.yaml   (ROS bag: topics, counts, rates)\n");
   if (!args.Parse(argc, argv)) return kExitOk;
   if (!rig_path.empty() && !dataset.root.empty())
     throw UsageError("give either --rig or --dataset, not both");

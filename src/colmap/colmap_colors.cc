@@ -10,6 +10,7 @@
 
 #include "colmap_internal.h"
 #include "mcvo/colmap/colmap_model.h"
+#include "mcvo/dataset/image_container.h"
 #include "mcvo/dataset/image_file.h"
 
 namespace mcvo {
@@ -65,7 +66,8 @@ bool PixelLess(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
 
 cv::Mat DecodeColmapColorImage(const std::filesystem::path& path) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return cv::Mat();
+  // A ROS bag's image is no file: ReadImageFile takes it from the bag (image_container.h).
+  if (!std::filesystem::is_regular_file(path, ec) && ImageContainerFile(path).empty()) return cv::Mat();
   try {
     return ReadImageFile(path);
   } catch (const cv::Exception&) {

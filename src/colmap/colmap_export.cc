@@ -23,6 +23,7 @@
 
 #include "colmap_internal.h"
 #include "mcvo/colmap/colmap_model.h"
+#include "mcvo/dataset/image_container.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/option_checks.h"
@@ -196,13 +197,15 @@ void ProcessImage(const PendingImage& image, const ColmapCameraExport& camera_ex
   const std::string where = StrCat(" (image '", image.name, "', camera '", camera_export.name, "')");
   const bool write = options.image_mode != ColmapImageMode::kNone;
   std::error_code ec;
-  if (write && !fs::is_regular_file(image.source, ec))
+  // A ROS bag's image has no file to link or copy: decoded and written (PNG).
+  const bool in_container = !ImageContainerFile(image.source).empty();
+  if (write && !in_container && !fs::is_regular_file(image.source, ec))
     MCVO_THROW_INPUT(image.source.string(), ": image not found", where);
   // Decoded only to remap it, or for colours the table does not have.
   const bool colors_given = options.sample_colors && samples != nullptr && !camera_export.undistorted &&
                             ColorsFromSamples(image, *samples, result);
   cv::Mat decoded;
-  if (camera_export.undistorted || (options.sample_colors && !colors_given))
+  if (camera_export.undistorted || (options.sample_colors && !colors_given) || (write && in_container))
     decoded = DecodeColmapColorImage(image.source);
   const fs::path target = image_dir / image.name;
   if (write) {
@@ -211,6 +214,9 @@ void ProcessImage(const PendingImage& image, const ColmapCameraExport& camera_ex
       cv::Mat remapped;
       cv::remap(decoded, remapped, *map_x, *map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
       WriteImage(target, remapped);
+    } else if (in_container) {
+      if (decoded.empty()) MCVO_THROW_INPUT(image.source.string(), ": cannot decode the image", where);
+      WriteImage(target, decoded);
     } else if (options.image_mode == ColmapImageMode::kLink) {
       fs::create_symlink(fs::absolute(image.source).lexically_normal(), target, ec);
       if (ec) MCVO_THROW_INPUT(target.string(), ": cannot create the link: ", ec.message());
@@ -381,6 +387,8 @@ std::vector<PendingImage> CollectImages(const Rig& rig, const SparseMap& map, co
       } else {
         image.source = listed.is_absolute() ? listed : dataset_root / listed;
         image.name = BaseImageName(listed, dataset_root, camera.name);
+        // A ROS bag's image (a member of the bag file, image_container.h) is written out as PNG.
+        if (!ImageContainerFile(image.source).empty()) image.name += ".png";
       }
       *blanks_replaced |= ReplaceBlanks(&image.name);
       if (names.count(image.name) != 0) {

@@ -17,7 +17,8 @@ namespace {
 namespace fs = std::filesystem;
 
 const std::vector<std::string>& KnownFormats() {
-  static const std::vector<std::string> formats = {"auto", "generic", "kitti360", "kitti", "euroc", "kalibr"};
+  static const std::vector<std::string> formats = {"auto",  "generic", "kitti360", "kitti",
+                                                   "euroc", "kalibr",  "rosbag"};
   return formats;
 }
 
@@ -137,6 +138,27 @@ void DatasetOptions::Check() const {
   if (!(std::isfinite(sync_tolerance_s) && sync_tolerance_s >= 0.0 && sync_tolerance_s <= 1.0)) {
     throw UsageError(StrCat("sync_tolerance_s: must be in [0, 1] s, got ", FormatDouble(sync_tolerance_s)));
   }
+  const bool rosbag = format == "rosbag" || (format == "auto" && root.extension() == ".bag");
+  if (!rosbag) {
+    for (const auto& [flag, given] : {std::pair<const char*, bool>{"calib", !calib.empty()},
+                                      {"topics", !topics.empty()},
+                                      {"gt_topic", !gt_topic.empty()},
+                                      {"gt_file", !gt_file.empty()}}) {
+      if (given) throw UsageError(StrCat(flag, ": only for ROS bags (format rosbag, a *.bag file)"));
+    }
+  } else {
+    if (calib.empty())
+      throw UsageError("calib: a ROS bag needs its calibration (a Kalibr camchain.yaml or a rig.json)");
+    if (!gt_topic.empty() && !gt_file.empty())
+      throw UsageError("gt_topic, gt_file: give one ground truth, not both");
+    std::set<std::string> named;
+    for (const auto& [camera, topic] : topics) {
+      if (camera.empty() || topic.empty())
+        throw UsageError(StrCat("topics: expected camera=topic, got '", camera, "=", topic, "'"));
+      if (!named.insert(camera).second)
+        throw UsageError(StrCat("topics: camera '", camera, "' is listed twice"));
+    }
+  }
   if (!(fisheye_max_angle_deg > 0.0 && fisheye_max_angle_deg <= 180.0)) {
     throw UsageError(
         StrCat("fisheye_max_angle_deg: must be in (0, 180], got ", FormatDouble(fisheye_max_angle_deg)));
@@ -145,6 +167,7 @@ void DatasetOptions::Check() const {
 
 std::string DetectDatasetFormat(const fs::path& root) {
   std::error_code ec;
+  if (root.extension() == ".bag" && !fs::is_directory(root, ec)) return "rosbag";
   if (!fs::is_directory(root, ec)) MCVO_THROW_INPUT(root.string(), ": dataset folder ", WhyNotAFolder(root));
   if (Exists(root / "frames.csv") && Exists(root / "rig.json")) return "generic";
   if (Exists(root / "calibration") && Exists(root / "data_2d_raw")) return "kitti360";
@@ -180,6 +203,8 @@ DatasetIndex OpenDataset(const DatasetOptions& options) {
     index = ReadKittiOdometryDataset(resolved);
   } else if (resolved.format == "euroc") {
     index = ReadEurocDataset(resolved);
+  } else if (resolved.format == "rosbag") {
+    index = ReadRosbagDataset(resolved);
   } else {
     MCVO_CHECK(resolved.format == "kalibr");
     index = ReadKalibrDataset(resolved);

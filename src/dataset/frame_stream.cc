@@ -23,6 +23,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "mcvo/dataset/dataset.h"
+#include "mcvo/dataset/image_container.h"
 #include "mcvo/dataset/image_file.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
@@ -51,6 +52,13 @@ struct CameraSize {
 // cv::imread applies may turn the decode. Formats without a header reader
 // are checked after the decode.
 cv::Mat DecodeImage(const std::filesystem::path& path, const CameraSize& camera) {
+  bool member = false;  // of an image container: a ROS bag's message (image_container.h)
+  cv::Mat from_container = DecodeContainerImage(path, &member);
+  if (member) {
+    if (from_container.cols != camera.width || from_container.rows != camera.height)
+      ThrowWrongSize(path, from_container.cols, from_container.rows, camera);
+    return from_container;
+  }
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
     const std::string why = WhyNotAFile(path);

@@ -15,6 +15,7 @@
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/strings.h"
+#include "rig_mask.h"
 
 namespace mcvo {
 namespace {
@@ -62,7 +63,9 @@ std::vector<int> SelectCameras(const Rig& rig, const std::vector<std::string>& w
   return order;
 }
 
-cv::Mat ReadMask(const Camera& camera) {
+}  // namespace
+
+cv::Mat dataset_internal::ReadRigMask(const Camera& camera) {
   const fs::path path = camera.mask_path;
   if (!IsFile(path))
     MCVO_THROW_INPUT(path.string(), ": mask of camera ", camera.name, " (named in rig.json) is missing");
@@ -82,8 +85,6 @@ cv::Mat ReadMask(const Camera& camera) {
   cv::threshold(mask, binary, 0, 255, cv::THRESH_BINARY);
   return binary;
 }
-
-}  // namespace
 
 DatasetIndex ReadGenericDataset(const DatasetOptions& options) {
   const fs::path& root = options.root;
@@ -167,7 +168,7 @@ DatasetIndex ReadGenericDataset(const DatasetOptions& options) {
     if (camera.mask_path.empty()) {
       index.masks.emplace_back();
     } else {
-      index.masks.push_back(ReadMask(camera));
+      index.masks.push_back(dataset_internal::ReadRigMask(camera));
     }
   }
   return index;

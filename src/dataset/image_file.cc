@@ -10,6 +10,8 @@
 // row are 0. Samples are big-endian.
 #include "mcvo/dataset/image_file.h"
 
+#include "mcvo/dataset/image_container.h"
+
 #include <algorithm>
 #include <array>
 #include <cstdlib>
@@ -295,6 +297,9 @@ cv::Mat DecodePng(const uint8_t* data, size_t size) {
 }
 
 cv::Mat ReadImageFile(const std::filesystem::path& path) {
+  bool member = false;
+  cv::Mat from_container = DecodeContainerImage(path, &member);
+  if (member) return from_container;
   {
     std::ifstream in(path, std::ios::binary);
     if (in) {

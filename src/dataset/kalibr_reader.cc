@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "camera_sync.h"
+#include "kalibr_camchain.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/logging.h"
@@ -132,9 +133,12 @@ void ReadIntrinsics(const YamlFile& file, const YAML::Node& cam, const std::stri
   camera->height = resolution.y();
 }
 
-// All cameras of the camchain, cam_from_rig set (see the top of the file).
-std::vector<Camera> ReadCamchain(const fs::path& path, std::vector<std::string>* log) {
-  using namespace dataset_internal;
+}  // namespace
+
+namespace dataset_internal {
+
+std::vector<Camera> ReadCamchain(const fs::path& path, std::vector<std::string>* log,
+                                 std::vector<std::string>* rostopics) {
   const YamlFile file = LoadYamlFile(path);
   std::vector<Camera> cameras;
   CatchYamlErrors(file, [&] {
@@ -173,6 +177,10 @@ std::vector<Camera> ReadCamchain(const fs::path& path, std::vector<std::string>*
         const std::string imu_key = JoinKey(key, "T_cam_imu");
         cam_from_imu[k] = RigidFromMatrix4(file, *imu, imu_key, ReadMatrix4(file, *imu, imu_key));
       }
+      if (rostopics != nullptr) {
+        const std::optional<YAML::Node> topic = OptionalKey(cam, "rostopic");
+        rostopics->push_back(topic ? ReadString(file, *topic, JoinKey(key, "rostopic")) : std::string());
+      }
       cameras.push_back(std::move(camera));
     }
 
@@ -193,6 +201,10 @@ std::vector<Camera> ReadCamchain(const fs::path& path, std::vector<std::string>*
   });
   return cameras;
 }
+
+}  // namespace dataset_internal
+
+namespace {
 
 bool IsImageFile(const fs::path& path) {
   std::string ext = path.extension().string();
@@ -248,7 +260,7 @@ DatasetIndex ReadKalibrDataset(const DatasetOptions& options) {
   index.root = options.root;
   const fs::path camchain = FindCamchain(options.root);
   index.log.push_back("kalibr: calibration " + camchain.string());
-  const std::vector<Camera> all = ReadCamchain(camchain, &index.log);
+  const std::vector<Camera> all = dataset_internal::ReadCamchain(camchain, &index.log);
 
   std::vector<std::string> selected;
   selected.reserve(all.size());

@@ -13,6 +13,7 @@
 
 #include "loop_stage.h"
 #include "mcvo/config/option_bounds.h"
+#include "mcvo/dataset/image_container.h"
 #include "mcvo/eval/evaluate.h"
 #include "mcvo/frontend/cross_camera.h"
 #include "mcvo/io/rig_io.h"
@@ -160,7 +161,9 @@ std::vector<FileStamp> StampRunFiles(const DatasetIndex& index, const std::files
   const int n = std::min(frames, static_cast<int>(index.frames.size()));
   for (int f = 0; f < n; ++f) {
     for (const std::filesystem::path& path : index.frames[f].images) {
-      if (!path.empty()) add(path);
+      if (path.empty()) continue;
+      const std::filesystem::path container = ImageContainerFile(path);  // a ROS bag's image: the bag
+      add(container.empty() ? path : container);
     }
   }
   return stamps;
@@ -210,7 +213,8 @@ std::vector<std::pair<std::string, std::string>> HashRunInputs(const DatasetInde
     std::vector<std::string> hashes(paths.size());
     ParallelFor(static_cast<int>(paths.size()), threads, [&](int i) {
       const std::filesystem::path& path = *paths[static_cast<size_t>(i)];
-      hashes[static_cast<size_t>(i)] = path.empty() ? std::string("missing") : Sha256File(path);
+      // A ROS bag's image: the hash of its message's bytes (image_container.h).
+      hashes[static_cast<size_t>(i)] = path.empty() ? std::string("missing") : Sha256OfImage(path);
     });
     Sha256 images;
     for (const std::string& hash : hashes) {

@@ -10,7 +10,9 @@
 //
 // Layouts: "generic" (what `mcvo synth` writes, docs/dataset-format.md),
 // "kitti360", "kitti" (KITTI odometry sequences as shipped), "euroc" (ASL),
-// "kalibr" (MultiCamData: camchain.yaml + camN/<ns>.png). Facts and conventions: docs/datasets.md.
+// "kalibr" (MultiCamData: camchain.yaml + camN/<ns>.png), "rosbag" (a ROS1
+// bag with a Kalibr camchain or rig.json; images streamed from the bag).
+// Facts and conventions: docs/datasets.md.
 #pragma once
 
 #include <cstdint>
@@ -18,6 +20,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core/mat.hpp>
@@ -36,7 +39,7 @@ enum class MissingImagePolicy {
 
 struct DatasetOptions {
   std::filesystem::path root;        // dataset folder (layout-specific meaning)
-  std::string format = "auto";       // auto | generic | kitti360 | kitti | euroc | kalibr
+  std::string format = "auto";       // auto | generic | kitti360 | kitti | euroc | kalibr | rosbag
   std::string sequence;              // kitti360: e.g. 2013_05_28_drive_0000_sync; kitti: e.g. 06
   std::vector<std::string> cameras;  // subset and order of cameras (names); empty: all
   MissingImagePolicy missing_images = MissingImagePolicy::kMarkMissing;
@@ -46,6 +49,16 @@ struct DatasetOptions {
   // kitti360 fisheyes without a mask file: pixels whose bearing is at most
   // this far from the optical axis are valid (the lens' image circle).
   double fisheye_max_angle_deg = 95.0;
+  // rosbag (root = the .bag file): the calibration, a Kalibr camchain
+  // (*.yaml) or a rig.json (*.json), required; the image topic per camera
+  // (camera name, topic), default the camchain's `rostopic`, else
+  // /<camera>/image_raw; ground truth from a pose topic (PoseStamped,
+  // TransformStamped, Odometry) or a trajectory file (TUM, EuRoC CSV, ...),
+  // at most one of them, none by default.
+  std::filesystem::path calib;
+  std::vector<std::pair<std::string, std::string>> topics;
+  std::string gt_topic;
+  std::filesystem::path gt_file;
 
   // Throws UsageError naming the bad field.
   void Check() const;
@@ -73,6 +86,10 @@ struct DatasetIndex {
   // (OpenRunDataset, pipeline/run.h: a one-camera rig's origin moves to the
   // camera centre); the ground truth above is moved with it.
   std::optional<Eigen::Vector3d> origin_moved_to;
+  // Layouts whose images lie in one container file (rosbag): keeps the
+  // container open and registered while any copy of the index lives, so
+  // that the image paths below it decode (mcvo/dataset/image_container.h).
+  std::shared_ptr<const void> image_container;
 };
 
 // Reads and validates the dataset's metadata (no image is decoded). Bad input
@@ -85,11 +102,12 @@ DatasetIndex ReadKitti360Dataset(const DatasetOptions& options);
 DatasetIndex ReadKittiOdometryDataset(const DatasetOptions& options);
 DatasetIndex ReadEurocDataset(const DatasetOptions& options);
 DatasetIndex ReadKalibrDataset(const DatasetOptions& options);
+DatasetIndex ReadRosbagDataset(const DatasetOptions& options);
 
 // Guesses the layout of a folder: generic (frames.csv + rig.json), kitti360
 // (calibration/ + data_2d_raw/), euroc (mav0/ or cam0/data.csv), kitti
 // (sequences/, or calib.txt + an image_0 .. image_3 folder), kalibr
-// (camchain*.yaml). Throws InputError when none fits.
+// (camchain*.yaml); a file named *.bag: rosbag. Throws InputError when none fits.
 std::string DetectDatasetFormat(const std::filesystem::path& root);
 
 // The valid-pixel mask of a camera: 255 where the pixel centre unprojects and

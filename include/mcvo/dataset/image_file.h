@@ -60,7 +60,9 @@ std::optional<ImageHeader> ReadImageHeader(const std::filesystem::path& path);
 // cv::imread(path, IMREAD_ANYCOLOR | IMREAD_ANYDEPTH), with PNG files that
 // DecodePng covers decoded by it (the same Mat). Like cv::imread: an empty
 // Mat when the file cannot be read or decoded, and cv::Exception where
-// OpenCV throws one.
+// OpenCV throws one. A member of a registered image container (a ROS bag's
+// image, mcvo/dataset/image_container.h) is decoded by the container, which
+// throws InputError naming the container and member when it cannot.
 cv::Mat ReadImageFile(const std::filesystem::path& path);
 
 }  // namespace mcvo
