@@ -24,7 +24,7 @@ const std::vector<std::string>& KnownFormats() {
 
 std::string JoinNames(const std::vector<std::string>& names) {
   std::string out;
-  for (const std::string& name : names) out += (out.empty() ? "" : ", ") + name;
+  for (const std::string& name : names) out += (out.empty() ? "" : ", ") + EscapeForMessage(name);
   return out;
 }
 
@@ -58,8 +58,8 @@ void ApplyCameraSelection(const std::vector<std::string>& wanted, DatasetIndex* 
   for (const std::string& name : wanted) {
     const int c = index->rig.FindCamera(name);
     if (c < 0) {
-      throw UsageError(StrCat("cameras: '", name, "' is not a camera of ", index->root.string(),
-                              " (cameras: ", JoinNames(CameraNames(index->rig)), ")"));
+      throw UsageError(StrCat("cameras: '", EscapeForMessage(name), "' is not a camera of ",
+                              index->root.string(), " (cameras: ", JoinNames(CameraNames(index->rig)), ")"));
     }
     order.push_back(c);
   }
@@ -87,8 +87,11 @@ void ApplyCameraSelection(const std::vector<std::string>& wanted, DatasetIndex* 
 // The invariants every layout guarantees to the rest of the program. A
 // violation is reported as bad input of the dataset (it comes from the data).
 void Validate(DatasetIndex* index) {
-  const std::string source = index->root.string();
+  const std::string source = EscapeForMessage(index->root.string());
   if (index->rig.NumCameras() == 0) MCVO_THROW_INPUT(source, ": the dataset has no camera");
+  // The readers check the names where they read them (rig.json, folders,
+  // camchain keys); this keeps the guarantee for any layout added later.
+  ValidateRigCameraNames(index->rig, source, [](size_t i) { return "camera " + std::to_string(i); });
   const size_t num_cameras = static_cast<size_t>(index->rig.NumCameras());
   if (index->masks.empty()) index->masks.resize(num_cameras);
   MCVO_CHECK_MSG(index->masks.size() == num_cameras, "reader returned ", index->masks.size(), " masks for ",
@@ -133,7 +136,8 @@ void DatasetOptions::Check() const {
   std::set<std::string> seen;
   for (const std::string& name : cameras) {
     if (name.empty()) throw UsageError("cameras: empty camera name");
-    if (!seen.insert(name).second) throw UsageError(StrCat("cameras: '", name, "' is listed twice"));
+    if (!seen.insert(name).second)
+      throw UsageError(StrCat("cameras: '", EscapeForMessage(name), "' is listed twice"));
   }
   if (!(std::isfinite(sync_tolerance_s) && sync_tolerance_s >= 0.0 && sync_tolerance_s <= 1.0)) {
     throw UsageError(StrCat("sync_tolerance_s: must be in [0, 1] s, got ", FormatDouble(sync_tolerance_s)));

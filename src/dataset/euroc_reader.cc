@@ -31,9 +31,15 @@ using dataset_internal::YamlFile;
 
 // "cam12" -> 12, anything else -> -1.
 int CameraNumber(const std::string& name) {
-  if (name.size() < 4 || name.compare(0, 3, "cam") != 0) return -1;
+  if (name.size() < 4 || name.size() > 7 || name.compare(0, 3, "cam") != 0) return -1;
+  // Digits only: ParseInt64 alone would take "cam0\n" or "cam0 " (it trims
+  // blanks), and the folder name is the camera name, a path component of
+  // the outputs.
+  for (size_t i = 3; i < name.size(); ++i) {
+    if (!std::isdigit(static_cast<unsigned char>(name[i]))) return -1;
+  }
   const std::optional<int64_t> n = ParseInt64(std::string_view(name).substr(3));
-  if (!n || *n < 0 || *n > 1000 || !std::isdigit(static_cast<unsigned char>(name[3]))) return -1;
+  if (!n || *n < 0 || *n > 1000) return -1;
   return static_cast<int>(*n);
 }
 
@@ -204,8 +210,8 @@ DatasetIndex ReadEurocDataset(const DatasetOptions& options) {
     if (std::find(available.begin(), available.end(), name) == available.end()) {
       std::string list;
       for (const std::string& a : available) list += (list.empty() ? "" : ", ") + a;
-      throw UsageError(
-          StrCat("cameras: '", name, "' is not a camera of ", mav0.string(), " (cameras: ", list, ")"));
+      throw UsageError(StrCat("cameras: '", EscapeForMessage(name), "' is not a camera of ", mav0.string(),
+                              " (cameras: ", list, ")"));
     }
   }
 
@@ -225,6 +231,8 @@ DatasetIndex ReadEurocDataset(const DatasetOptions& options) {
                                  first_absent, "); treated as missing"));
     }
   }
+  ValidateRigCameraNames(index.rig, EscapeForMessage(mav0.string()),
+                         [&](size_t i) { return "camera folder " + std::to_string(i); });
   if (streams[0].t_ns.empty()) MCVO_THROW_INPUT((mav0 / selected[0] / "data.csv").string(), ": no images");
   index.log.push_back(
       StrCat("euroc: rig frame = body frame B (IMU); cam_from_rig = inverse(T_BS) of each sensor.yaml"));

@@ -24,7 +24,7 @@ namespace fs = std::filesystem;
 
 std::string JoinNames(const std::vector<std::string>& names) {
   std::string out;
-  for (const std::string& name : names) out += (out.empty() ? "" : ", ") + name;
+  for (const std::string& name : names) out += (out.empty() ? "" : ", ") + EscapeForMessage(name);
   return out;
 }
 
@@ -55,8 +55,8 @@ std::vector<int> SelectCameras(const Rig& rig, const std::vector<std::string>& w
     if (c < 0) {
       std::vector<std::string> names;
       for (const Camera& camera : rig.cameras) names.push_back(camera.name);
-      throw UsageError(StrCat("cameras: '", name, "' is not a camera of ", rig_path.string(),
-                              " (cameras: ", JoinNames(names), ")"));
+      throw UsageError(StrCat("cameras: '", EscapeForMessage(name), "' is not a camera of ",
+                              rig_path.string(), " (cameras: ", JoinNames(names), ")"));
     }
     order.push_back(c);
   }

@@ -270,12 +270,14 @@ DatasetIndex ReadKalibrDataset(const DatasetOptions& options) {
   for (const std::string& name : selected) {
     const auto it = std::find_if(all.begin(), all.end(), [&](const Camera& c) { return c.name == name; });
     if (it == all.end()) {
-      throw UsageError(StrCat("cameras: '", name, "' is not a camera of ", camchain.string(), " (cam0..cam",
-                              all.size() - 1, ")"));
+      throw UsageError(StrCat("cameras: '", EscapeForMessage(name), "' is not a camera of ",
+                              camchain.string(), " (cam0..cam", all.size() - 1, ")"));
     }
     index.rig.cameras.push_back(*it);
     streams.push_back(ListImages(options.root, name));
   }
+  ValidateRigCameraNames(index.rig, EscapeForMessage(camchain.string()),
+                         [&](size_t i) { return index.rig.cameras[i].name; });
   if (streams[0].t_ns.empty()) MCVO_THROW_INPUT((options.root / selected[0]).string(), ": no images");
 
   dataset_internal::SyncResult sync =

@@ -211,6 +211,8 @@ DatasetIndex ReadKitti360Dataset(const DatasetOptions& options) {
   const std::vector<std::string> names = SelectCameras(options, sequence, &index.log);
   const fs::path calibration = options.root / "calibration";
   index.rig = ReadKitti360Rig(calibration, names, &index.log);
+  ValidateRigCameraNames(index.rig, EscapeForMessage(calibration.string()),
+                         [&](size_t i) { return index.rig.cameras[i].name; });
   for (Camera& camera : index.rig.cameras)
     index.masks.push_back(LoadOrMakeMask(calibration, options, &camera, &index.log));
 

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mcvo/util/strings.h"
+#include "report_common.h"
 
 namespace mcvo {
 namespace {
@@ -162,7 +163,10 @@ std::string EvalResultToJson(const EvalResult& result) {
 std::string EvalResultToMarkdown(const EvalResult& result) {
   std::ostringstream out;
   const Association& a = result.association;
-  out << "## mcvo eval: " << result.est_name << " vs " << result.gt_name << "\n\n";
+  // The names are the user's file names and the reasons may quote them:
+  // escaped, since Markdown viewers render inline HTML.
+  const auto md = [](const std::string& text) { return report_internal::MdEscape(text, false); };
+  out << "## mcvo eval: " << md(result.est_name) << " vs " << md(result.gt_name) << "\n\n";
   out << "matched " << a.pairs.size() << " of " << result.num_est_poses << " estimated and "
       << result.num_gt_poses << " ground-truth poses (associate "
       << AssociationModeName(result.options.association.mode);
@@ -205,7 +209,7 @@ std::string EvalResultToMarkdown(const EvalResult& result) {
     }
     out << "\nRPE values are means over the segments of each length.\n\n";
   } else {
-    out << "RPE skipped: " << result.rpe.skipped_reason << "\n\n";
+    out << "RPE skipped: " << md(result.rpe.skipped_reason) << "\n\n";
   }
 
   const ScaleResult& scale = result.scale;
@@ -214,7 +218,7 @@ std::string EvalResultToMarkdown(const EvalResult& result) {
         << Fixed(scale.est_scale_factor, 6) << " x true size; scale error "
         << Fixed(scale.scale_error_percent, 3) << " %\n";
   } else {
-    out << "scale: not available (" << scale.unavailable_reason << ")\n";
+    out << "scale: not available (" << md(scale.unavailable_reason) << ")\n";
   }
   const StartEndResult& se = result.start_end;
   out << "start-end: est " << Fixed(se.est_distance_m) << " m"
@@ -227,7 +231,7 @@ std::string EvalResultToMarkdown(const EvalResult& result) {
       << "\n";
   if (!result.notes.empty()) {
     out << "\nnotes:\n";
-    for (const std::string& note : result.notes) out << "- " << note << "\n";
+    for (const std::string& note : result.notes) out << "- " << md(note) << "\n";
   }
   return out.str();
 }

@@ -40,6 +40,50 @@ std::string StatsLine(const ErrorStats& s, const char* unit) {
 
 }  // namespace
 
+std::string MdEscape(std::string_view text, bool escape_emphasis) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char ch : text) {
+    switch (ch) {
+      case '\n':
+      case '\r':
+      case '\t':
+        out += ' ';
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '*':
+      case '_':
+      case '#':
+        if (escape_emphasis) out += '\\';
+        out += ch;
+        break;
+      case '\\':
+      case '|':
+      case '`':
+      case '[':
+      case ']':
+        out += '\\';
+        out += ch;
+        break;
+      default:
+        if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) {
+          out += "\xEF\xBF\xBD";  // U+FFFD
+        } else {
+          out += ch;
+        }
+    }
+  }
+  return out;
+}
+
 std::string Fixed(double value, int decimals) { return FormatFixed(value, decimals); }
 
 std::string StatOrDash(const ErrorStats& stats, double value, int decimals) {

@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -23,6 +24,15 @@ struct Table {
   std::vector<std::string> header;
   std::vector<std::vector<std::string>> rows;
 };
+
+// Text that reads literally in a Markdown paragraph or table cell, also when
+// the Markdown is rendered as HTML: line breaks become spaces, & < > become
+// entities, \\ | ` [ ] are backslash-escaped (no code span, table cell or
+// link), other control characters become U+FFFD. With escape_emphasis, also
+// * _ # (report.md; eval.md keeps file names such as est_vo.tum as they are,
+// emphasis is not markup that can do harm). report.md and eval.md quote user
+// text (file names, settings) only through it.
+std::string MdEscape(std::string_view text, bool escape_emphasis = true);
 
 // inputs.estimate, or eval->est_aligned when that is empty and eval is set.
 const Trajectory& ReportEstimate(const ReportInputs& inputs);

@@ -11,51 +11,8 @@ namespace mcvo {
 namespace {
 
 using report_internal::KeyValues;
+using report_internal::MdEscape;
 using report_internal::Table;
-
-// Text that reads literally in a Markdown paragraph or table cell: line
-// breaks become spaces, HTML-significant characters entities, Markdown
-// syntax characters are backslash-escaped (the pipe included, for tables).
-std::string MdEscape(std::string_view text) {
-  std::string out;
-  out.reserve(text.size());
-  for (const char ch : text) {
-    switch (ch) {
-      case '\n':
-      case '\r':
-      case '\t':
-        out += ' ';
-        break;
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '\\':
-      case '|':
-      case '*':
-      case '_':
-      case '`':
-      case '[':
-      case ']':
-      case '#':
-        out += '\\';
-        out += ch;
-        break;
-      default:
-        if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) {
-          out += "\xEF\xBF\xBD";  // U+FFFD
-        } else {
-          out += ch;
-        }
-    }
-  }
-  return out;
-}
 
 std::string TableMd(const Table& table) {
   std::string out = "|";

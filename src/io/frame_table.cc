@@ -2,6 +2,7 @@
 
 #include <set>
 #include <sstream>
+#include <string_view>
 
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
@@ -29,7 +30,11 @@ FrameTable ReadFrameTable(const std::filesystem::path& path) {
 }
 
 FrameTable ParseFrameTable(const std::string& text, const std::string& file) {
-  std::istringstream in(text);
+  // A UTF-8 byte order mark (spreadsheet exports write one) is not part of
+  // the header, as in rig.json and groundtruth.tum.
+  constexpr std::string_view kBom = "\xEF\xBB\xBF";
+  std::istringstream in(std::string_view(text).substr(0, kBom.size()) == kBom ? text.substr(kBom.size())
+                                                                              : text);
   std::string line;
   int line_number = 0;
   FrameTable table;
@@ -48,7 +53,8 @@ FrameTable ParseFrameTable(const std::string& text, const std::string& file) {
         if (fields[i].empty())
           MCVO_THROW_INPUT(file, ":", line_number, ": empty camera name in column ", i + 1);
         if (!seen.insert(fields[i]).second) {
-          MCVO_THROW_INPUT(file, ":", line_number, ": camera name \"", fields[i], "\" appears twice");
+          MCVO_THROW_INPUT(file, ":", line_number, ": camera name \"", EscapeForMessage(fields[i]),
+                           "\" appears twice");
         }
         table.camera_names.emplace_back(fields[i]);
       }
@@ -62,8 +68,8 @@ FrameTable ParseFrameTable(const std::string& text, const std::string& file) {
     FrameTableRow row;
     const std::optional<int64_t> t_ns = ParseInt64(fields[0]);
     if (!t_ns)
-      MCVO_THROW_INPUT(file, ":", line_number, ": t_ns must be an integer (nanoseconds), got \"", fields[0],
-                       "\"");
+      MCVO_THROW_INPUT(file, ":", line_number, ": t_ns must be an integer (nanoseconds), got \"",
+                       EscapeForMessage(fields[0]), "\"");
     row.t_ns = *t_ns;
     if (!table.rows.empty() && row.t_ns <= table.rows.back().t_ns) {
       MCVO_THROW_INPUT(file, ":", line_number, ": time ", row.t_ns, " ns does not increase (previous ",
@@ -71,7 +77,8 @@ FrameTable ParseFrameTable(const std::string& text, const std::string& file) {
     }
     for (size_t i = 1; i < fields.size(); ++i) {
       if (fields[i].find_first_of(" \t") != std::string_view::npos) {
-        MCVO_THROW_INPUT(file, ":", line_number, ": image path \"", fields[i], "\" contains a blank");
+        MCVO_THROW_INPUT(file, ":", line_number, ": image path \"", EscapeForMessage(fields[i]),
+                         "\" contains a blank");
       }
       row.image_paths.emplace_back(fields[i]);
     }

@@ -10,7 +10,10 @@
 namespace mcvo::io_internal {
 namespace {
 
+// A parser message as one line of valid UTF-8 (its "last read" token may
+// hold the very bytes that are not UTF-8).
 std::string OneLine(std::string text) {
+  if (!IsValidUtf8(text)) text = EscapeForMessage(text);
   for (char& c : text) {
     if (c == '\n' || c == '\r') c = ' ';
   }
@@ -39,7 +42,8 @@ class PathTrackingBuilder : public nlohmann::json_sax<Json> {
   bool end_array() override { return Close(); }
   bool key(string_t& key) override {
     if (stack_.back()->contains(key)) {
-      error_ = StrCat(source_, ": ", JoinPath(ContainerPath(), key), ": duplicate key");
+      error_ = StrCat(EscapeForMessage(source_), ": ", EscapeForMessage(JoinPath(ContainerPath(), key)),
+                      ": duplicate key");
       return false;
     }
     pending_key_ = key;
@@ -48,11 +52,12 @@ class PathTrackingBuilder : public nlohmann::json_sax<Json> {
   bool parse_error(std::size_t /*position*/, const std::string& last_token,
                    const nlohmann::detail::exception& ex) override {
     if (ex.id == 406) {  // number overflow: the value would not be finite
-      error_ = StrCat(source_, ": ", PendingPath(), ": number ", last_token, " is out of range (not finite)");
+      error_ = StrCat(EscapeForMessage(source_), ": ", EscapeForMessage(PendingPath()), ": number ",
+                      last_token, " is out of range (not finite)");
     } else {
       std::string what = ex.what();
       if (const size_t end = what.find("] "); end != std::string::npos) what.erase(0, end + 2);
-      error_ = StrCat(source_, ": JSON ", OneLine(what));
+      error_ = StrCat(EscapeForMessage(source_), ": JSON ", OneLine(what));
     }
     return false;
   }
@@ -151,8 +156,10 @@ std::string DescribeJson(const Json& value) {
     case Json::value_t::boolean:
       return value.get<bool>() ? "true" : "false";
     case Json::value_t::string: {
+      // dump() escapes control characters; the cut must not split a UTF-8
+      // character of the string (the message would not be UTF-8).
       std::string text = value.dump();
-      if (text.size() > 40) text = text.substr(0, 37) + "...";
+      if (text.size() > 40) text = std::string(Utf8Prefix(text, 37)) + "...";
       return "a string (" + text + ")";
     }
     case Json::value_t::number_integer:
@@ -215,7 +222,10 @@ std::string PrettyJson(const nlohmann::ordered_json& value) {
 }
 
 void JsonReader::Fail(const std::string& path, const std::string& what) const {
-  throw InputError(StrCat(source_, ": ", path.empty() ? "/" : path, ": ", what));
+  // The file name and the keys in the pointer come from the user: escaped so
+  // that the message stays one line.
+  throw InputError(
+      StrCat(EscapeForMessage(source_), ": ", path.empty() ? "/" : EscapeForMessage(path), ": ", what));
 }
 
 void JsonReader::ExpectObject(const Json& value, const std::string& path) const {

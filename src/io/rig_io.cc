@@ -3,7 +3,6 @@
 
 #include <Eigen/SVD>
 #include <cmath>
-#include <map>
 
 #include "mcvo/io/json_util.h"
 #include "mcvo/util/error.h"
@@ -97,13 +96,18 @@ Camera ReadCamera(const JsonReader& reader, const Json& value, const std::string
                    {"name", "model", "width", "height", "params"});
   Camera camera;
   camera.name = reader.String(value["name"], JoinPath(path, "name"));
-  if (camera.name.empty()) reader.Fail(JoinPath(path, "name"), "camera name must not be empty");
+  // The name becomes a folder name of the outputs: checked before anything
+  // else of the camera (ValidateRigCameraNames below repeats it for all).
+  if (const std::string problem = ValidateCameraName(camera.name); !problem.empty())
+    reader.Fail(JoinPath(path, "name"), problem);
 
   const std::string model_path = JoinPath(path, "model");
   const std::string model_name = reader.String(value["model"], model_path);
   const std::optional<CameraModelId> model = CameraModelFromName(model_name);
-  if (!model)
-    reader.Fail(model_path, "unknown camera model \"" + model_name + "\" (known: " + KnownModelNames() + ")");
+  if (!model) {
+    reader.Fail(model_path, "unknown camera model \"" + EscapeForMessage(model_name) +
+                                "\" (known: " + KnownModelNames() + ")");
+  }
   camera.model = *model;
 
   camera.width = static_cast<int>(reader.Integer(value["width"], JoinPath(path, "width"), 1, 1 << 20));
@@ -142,7 +146,7 @@ Camera ReadCamera(const JsonReader& reader, const Json& value, const std::string
     resolved = std::filesystem::absolute(resolved).lexically_normal();
     std::error_code ec;
     if (!std::filesystem::is_regular_file(resolved, ec))
-      reader.Fail(mask_path, "mask file not found: " + resolved.string());
+      reader.Fail(mask_path, "mask file not found: " + EscapeForMessage(resolved.string()));
     camera.mask_path = resolved.string();
   }
   return camera;
@@ -176,16 +180,10 @@ Rig ParseRigJson(const std::string& text, const std::string& source, const std::
   reader.ExpectArray(cameras, "/cameras");
   if (cameras.empty()) reader.Fail("/cameras", "the rig has no cameras (expected at least one)");
   Rig rig;
-  std::map<std::string, size_t> first_index;
   for (size_t i = 0; i < cameras.size(); ++i) {
-    const std::string path = JoinPath("/cameras", i);
-    rig.cameras.push_back(ReadCamera(reader, cameras[i], path, base_dir));
-    const auto [it, inserted] = first_index.emplace(rig.cameras.back().name, i);
-    if (!inserted) {
-      reader.Fail(JoinPath(path, "name"),
-                  StrCat("duplicate camera name \"", it->first, "\" (also /cameras/", it->second, "/name)"));
-    }
+    rig.cameras.push_back(ReadCamera(reader, cameras[i], JoinPath("/cameras", i), base_dir));
   }
+  ValidateRigCameraNames(rig, source, [](size_t i) { return JoinPath(JoinPath("/cameras", i), "name"); });
   return rig;
 }
 

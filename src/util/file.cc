@@ -1,37 +1,104 @@
 #include "mcvo/util/file.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <sstream>
+#include <streambuf>
 #include <system_error>
 
 #include "mcvo/util/error.h"
 
 namespace mcvo {
 
+class AtomicFileWriter::FileBuffer : public std::streambuf {
+ public:
+  explicit FileBuffer(int fd) : fd_(fd) { setp(buffer_, buffer_ + sizeof(buffer_)); }
+  ~FileBuffer() override { Close(); }
+  FileBuffer(const FileBuffer&) = delete;
+  FileBuffer& operator=(const FileBuffer&) = delete;
+
+  // errno of the first failed write or close; 0 when none failed.
+  int error() const { return error_; }
+  // Writes what is buffered and closes; false when anything failed.
+  bool Close() {
+    if (fd_ < 0) return error_ == 0;
+    Drain();
+    if (::close(fd_) != 0 && error_ == 0) error_ = errno;
+    fd_ = -1;
+    return error_ == 0;
+  }
+
+ protected:
+  int_type overflow(int_type ch) override {
+    if (!Drain()) return traits_type::eof();
+    if (!traits_type::eq_int_type(ch, traits_type::eof())) {
+      *pptr() = traits_type::to_char_type(ch);
+      pbump(1);
+    }
+    return traits_type::not_eof(ch);
+  }
+  int sync() override { return Drain() ? 0 : -1; }
+
+ private:
+  // Writes the buffer out; after a failure nothing more is written.
+  bool Drain() {
+    const char* data = pbase();
+    size_t left = static_cast<size_t>(pptr() - pbase());
+    while (left > 0 && error_ == 0) {
+      const ssize_t n = ::write(fd_, data, left);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) {
+        error_ = n < 0 ? errno : EIO;
+        break;
+      }
+      data += n;
+      left -= static_cast<size_t>(n);
+    }
+    setp(buffer_, buffer_ + sizeof(buffer_));
+    return error_ == 0;
+  }
+
+  int fd_;
+  int error_ = 0;
+  char buffer_[1 << 16];
+};
+
 AtomicFileWriter::AtomicFileWriter(std::filesystem::path path) : path_(std::move(path)) {
   tmp_path_ = path_;
   tmp_path_ += ".tmp." + std::to_string(::getpid());
-  out_.open(tmp_path_, std::ios::out | std::ios::binary | std::ios::trunc);
-  if (!out_) MCVO_THROW_INPUT(path_.string(), ": cannot open for writing");
+  // O_NOFOLLOW: a symbolic link planted at the temporary name must not send
+  // the output somewhere else.
+  const int fd = ::open(tmp_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
+  if (fd < 0) {
+    const int error = errno;
+    MCVO_THROW_INPUT(path_.string(), ": cannot open for writing: ", std::generic_category().message(error));
+  }
+  buffer_ = std::make_unique<FileBuffer>(fd);
+  out_.rdbuf(buffer_.get());
   // Fixed formatting regardless of the global locale.
   out_.imbue(std::locale::classic());
 }
 
 AtomicFileWriter::~AtomicFileWriter() {
   if (!committed_) {
-    out_.close();
+    if (buffer_ != nullptr) buffer_->Close();
     std::error_code ec;
     std::filesystem::remove(tmp_path_, ec);
   }
+}
+
+std::string AtomicFileWriter::WriteFailedMessage(const std::filesystem::path& path, int error) {
+  return path.string() + ": write failed" + (error != 0 ? ": " + std::generic_category().message(error) : "");
 }
 
 void AtomicFileWriter::Commit() {
   MCVO_CHECK(!committed_);
   out_.flush();
   const bool ok = static_cast<bool>(out_);
-  out_.close();
-  if (!ok || out_.fail()) MCVO_THROW_INPUT(path_.string(), ": write failed");
+  const bool closed = buffer_->Close();
+  if (!ok || !closed) throw InputError(WriteFailedMessage(path_, buffer_->error()));
   std::error_code ec;
   std::filesystem::rename(tmp_path_, path_, ec);
   if (ec) MCVO_THROW_INPUT(path_.string(), ": cannot rename temporary file: ", ec.message());

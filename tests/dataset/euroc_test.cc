@@ -304,5 +304,17 @@ TEST(EurocReader, BadIntrinsicsAndMissingFolder) {
   EXPECT_NE(ErrorOf(Options(root / "nowhere")).find("nowhere"), std::string::npos);
 }
 
+TEST(EurocReader, OnlyCamDigitsFoldersAreCameras) {
+  // The folder name is the camera name, a path component of the outputs:
+  // "cam0" followed by a newline or a blank once passed as camera 0 and
+  // split error messages; now it is just not a camera folder.
+  const fs::path root = WriteEuroc();
+  fs::rename(root / "mav0" / "cam1", root / "mav0" / "cam1\n");
+  fs::create_directories(root / "mav0" / "cam2 ");
+  const DatasetIndex index = ReadEurocDataset(Options(root));
+  ASSERT_EQ(index.rig.NumCameras(), 1);
+  EXPECT_EQ(index.rig.cameras[0].name, "cam0");
+}
+
 }  // namespace
 }  // namespace mcvo

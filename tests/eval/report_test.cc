@@ -116,5 +116,28 @@ TEST(Report, CsvAndMarkdownContent) {
   EXPECT_NE(md.find("scale: sim3"), std::string::npos);
 }
 
+TEST(Report, MarkdownEscapesUserTextForHtmlRenderers) {
+  // eval.md is Markdown that viewers render with inline HTML: file names and
+  // reasons that quote them must not become markup.
+  EvalResult result = ExampleResult();
+  result.est_name = "<img src=x onerror=alert(1)>.tum";
+  result.gt_name = "a|b`c`&d.tum";
+  result.rpe.computed = false;
+  result.rpe.skipped_reason = "too short: <script>x</script>";
+  result.scale.available = false;
+  result.scale.unavailable_reason = "no <b>scale</b>";
+  result.notes = {"<iframe>\nsecond line", "est_vo.tum"};
+  const std::string md = EvalResultToMarkdown(result);
+  for (const char* raw : {"<img", "<script>", "<b>", "<iframe>", "|b`c`&d"})
+    EXPECT_EQ(md.find(raw), std::string::npos) << raw << " in\n" << md;
+  EXPECT_NE(md.find("## mcvo eval: &lt;img src=x onerror=alert(1)&gt;.tum vs a\\|b\\`c\\`&amp;d.tum\n"),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("RPE skipped: too short: &lt;script&gt;x&lt;/script&gt;\n"), std::string::npos) << md;
+  EXPECT_NE(md.find("scale: not available (no &lt;b&gt;scale&lt;/b&gt;)\n"), std::string::npos) << md;
+  EXPECT_NE(md.find("- &lt;iframe&gt; second line\n"), std::string::npos) << md;
+  EXPECT_NE(md.find("- est_vo.tum\n"), std::string::npos) << md;  // emphasis characters stay
+}
+
 }  // namespace
 }  // namespace mcvo

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
@@ -56,6 +57,22 @@ TEST(FrameTable, MalformedFilesNameFileAndLine) {
       ErrorOf("t_ns,a\n20,x.png\n# comment\n10,y.png\n").find("bad.csv:4: time 10 ns does not increase"),
       std::string::npos);
   EXPECT_NE(ErrorOf("").find("empty frame table"), std::string::npos);
+}
+
+TEST(FrameTable, AUtf8ByteOrderMarkIsSkipped) {
+  // Spreadsheet exports start with one; rig.json and groundtruth.tum accept it too.
+  const FrameTable table = ReadFrameTable(TempFile("bom.csv", "\xEF\xBB\xBFt_ns,left\n1000,a.png\n"));
+  EXPECT_EQ(table.camera_names, std::vector<std::string>{"left"});
+  ASSERT_EQ(table.rows.size(), 1u);
+  EXPECT_EQ(table.rows[0].image_paths[0], "a.png");
+  // Only at the very start: elsewhere the bytes stay part of the field.
+  EXPECT_NE(ErrorOf("\n\xEF\xBB\xBFt_ns,a\n").find("bad.csv:2: expected the header"), std::string::npos);
+}
+
+TEST(FrameTable, UserTextInErrorsIsEscapedOnOneLine) {
+  const std::string error = ErrorOf("t_ns,a\x1B[2J,a\x1B[2J\n");
+  EXPECT_NE(error.find("bad.csv:1: camera name \"a\\x1B[2J\" appears twice"), std::string::npos) << error;
+  EXPECT_NE(ErrorOf("t_ns,a\n1\x01,x.png\n").find("got \"1\\x01\""), std::string::npos);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
+#include "mcvo/util/strings.h"
 
 namespace mcvo {
 namespace {
@@ -181,6 +182,28 @@ TEST(RigIo, ErrorMessagesNameTheJsonPath) {
   EXPECT_NE(ErrorOf("{\n\"cameras\": [\n}").find("r.json: JSON parse error at line 3, column 1"),
             std::string::npos)
       << ErrorOf("{\n\"cameras\": [\n}");
+}
+
+TEST(RigIo, ErrorMessagesAreValidUtf8) {
+  // A long string value is cut for the message: never inside a character
+  // ("x" and 20 three-byte letters: the cut at 37 bytes of its JSON text,
+  // quote included, falls in the 12th letter).
+  std::string letters;
+  for (int i = 0; i < 20; ++i) letters += "\xE6\x9D\xB1";
+  const std::string cut = ErrorOf(R"({"cameras": [{"name": "a", "model": "pinhole", "width": "x)" + letters +
+                                  R"(", "height": 10, "params": [5, 5, 5, 5]}]})");
+  EXPECT_EQ(cut.find("r.json: /cameras/0/width: expected an integer, got a string (\"x" +
+                     letters.substr(0, 33) + "...)"),
+            0u)
+      << cut;
+  EXPECT_TRUE(IsValidUtf8(cut)) << cut;
+  // Bytes that are not UTF-8 make the parser fail; its message quotes them.
+  const std::string parse = ErrorOf("{\"cameras\": [\"\xFF\xFE\"]}");
+  EXPECT_EQ(parse.find("r.json: JSON "), 0u) << parse;
+  EXPECT_TRUE(IsValidUtf8(parse)) << parse;
+  // A key with a newline is quoted in the pointer, escaped onto one line.
+  const std::string key = ErrorOf("{\"cameras\": [], \"x\\ny\": 1}");
+  EXPECT_EQ(key, "r.json: /x\\ny: unknown key (valid keys: cameras, description)");
 }
 
 TEST(RigIo, ParamNames) {

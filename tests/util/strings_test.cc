@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
+#include <vector>
 
 namespace mcvo {
 namespace {
@@ -56,6 +58,44 @@ TEST(Strings, SplitFieldsKeepsEmptyFields) {
   EXPECT_EQ(fields[2], "");
   EXPECT_EQ(fields[3], "c");
   EXPECT_EQ(SplitTokens("  1 2\t3  ").size(), 3u);
+}
+
+TEST(Strings, IsValidUtf8RejectsMalformedSequences) {
+  EXPECT_TRUE(IsValidUtf8(""));
+  EXPECT_TRUE(IsValidUtf8("cam\xC3\xA9ra \xE6\x9D\xB1 \xF0\x9F\x93\xB7"));  // é, 東, a camera emoji
+  EXPECT_FALSE(IsValidUtf8("caf\xC3"));                                     // cut in the middle of é
+  EXPECT_FALSE(IsValidUtf8("\xFF"));                                        // never a UTF-8 byte
+  EXPECT_FALSE(IsValidUtf8("\xC0\xAF"));                                    // overlong '/'
+  EXPECT_FALSE(IsValidUtf8("\xED\xA0\x80"));                                // a UTF-16 surrogate
+  EXPECT_FALSE(IsValidUtf8("\xF4\x90\x80\x80"));                            // above U+10FFFF
+  EXPECT_FALSE(IsValidUtf8("\x80"));                                        // a lone continuation byte
+}
+
+TEST(Strings, Utf8PrefixCutsOnACharacterBoundary) {
+  const std::string text = "ab\xC3\xA9\xE6\x9D\xB1";  // a b é 東: 1 + 1 + 2 + 3 bytes
+  EXPECT_EQ(Utf8Prefix(text, 100), text);
+  EXPECT_EQ(Utf8Prefix(text, 7), text);
+  EXPECT_EQ(Utf8Prefix(text, 6), "ab\xC3\xA9");  // not into 東
+  EXPECT_EQ(Utf8Prefix(text, 5), "ab\xC3\xA9");
+  EXPECT_EQ(Utf8Prefix(text, 4), "ab\xC3\xA9");
+  EXPECT_EQ(Utf8Prefix(text, 3), "ab");  // not into é
+  EXPECT_EQ(Utf8Prefix(text, 0), "");
+  for (size_t n = 0; n <= text.size(); ++n) EXPECT_TRUE(IsValidUtf8(Utf8Prefix(text, n))) << n;
+}
+
+TEST(Strings, EscapeForMessageKeepsOneLineOfValidUtf8) {
+  EXPECT_EQ(EscapeForMessage("cam_0"), "cam_0");
+  EXPECT_EQ(EscapeForMessage("a\nb\rc\td"), "a\\nb\\rc\\td");
+  EXPECT_EQ(EscapeForMessage("say \"hi\" \\o/"), "say \\\"hi\\\" \\\\o/");
+  EXPECT_EQ(EscapeForMessage(std::string("nul\0esc\x1B[31mdel\x7F", 16)), "nul\\x00esc\\x1B[31mdel\\x7F");
+  EXPECT_EQ(EscapeForMessage("c1\xC2\x85 ls\xE2\x80\xA8"), "c1\\u{0085} ls\\u{2028}");
+  EXPECT_EQ(EscapeForMessage("bad\xFF\xC3"), "bad\\xFF\\xC3");
+  EXPECT_EQ(EscapeForMessage("cam\xC3\xA9ra \xE6\x9D\xB1"), "cam\xC3\xA9ra \xE6\x9D\xB1");  // letters stay
+  for (const std::string& text : std::vector<std::string>{"x\ny", "\xFF\xFE", "a\x85"}) {
+    const std::string escaped = EscapeForMessage(text);
+    EXPECT_TRUE(IsValidUtf8(escaped)) << escaped;
+    EXPECT_EQ(escaped.find_first_of("\n\r"), std::string::npos) << escaped;
+  }
 }
 
 }  // namespace

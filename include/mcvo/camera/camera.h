@@ -4,6 +4,8 @@
 // model types directly.
 #pragma once
 
+#include <cstddef>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -92,5 +94,27 @@ struct Rig {
   // Every camera's cam_from_rig, in rig order.
   std::vector<Rigid3d> CamFromRig() const;
 };
+
+// Camera names become folder and file names of the outputs (images/<camera>/,
+// masks/<camera>.png, colmap/images/<camera>/), so a name must be one safe,
+// portable path component: not empty, at most kMaxCameraNameBytes bytes of
+// valid UTF-8, not starting with '.' (so neither "." nor "..") or '-', and
+// without '/', '\\' or control characters (C0, DEL, C1). Other Unicode
+// letters are fine.
+inline constexpr size_t kMaxCameraNameBytes = 100;
+
+// Why `name` cannot name a camera, e.g. "\"../x\" is not a safe folder name:
+// must not contain '/'" (the name escaped by EscapeForMessage so the message
+// stays one line), or "" when it can.
+std::string ValidateCameraName(std::string_view name);
+
+// The check every rig goes through once, wherever it is read or built:
+// each name passes ValidateCameraName and no two names are equal ignoring
+// ASCII letter case (folders on case-insensitive file systems). Throws
+// InputError "<source>: <where(i)>: <what>" for the first bad camera i;
+// `where` gives the place of camera i's name in the source (a JSON pointer,
+// a YAML key, ...).
+void ValidateRigCameraNames(const Rig& rig, const std::string& source,
+                            const std::function<std::string(size_t)>& where);
 
 }  // namespace mcvo

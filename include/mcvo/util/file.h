@@ -6,6 +6,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <ostream>
 #include <string>
 #include <system_error>
 #include <utility>
@@ -14,8 +16,8 @@ namespace mcvo {
 
 class AtomicFileWriter {
  public:
-  // Opens the temporary file; throws InputError naming `path` when the
-  // directory is not writable.
+  // Opens the temporary file (never through a symbolic link); throws
+  // InputError naming `path` and the reason when it cannot.
   explicit AtomicFileWriter(std::filesystem::path path);
   // Removes the temporary file if Commit() was not called.
   ~AtomicFileWriter();
@@ -23,14 +25,24 @@ class AtomicFileWriter {
   AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
 
   std::ostream& stream() { return out_; }
-  // Flushes, closes and renames onto the final path. Throws InputError when
-  // the write failed (disk full, ...).
+  // Flushes, closes and renames onto the final path. Throws InputError
+  // "<path>: write failed: <reason>" when a write or the close failed, the
+  // reason from the system ("No space left on device", ...).
   void Commit();
 
+  // The message of a failed write of `path` with the errno it failed with
+  // (0: reason unknown).
+  static std::string WriteFailedMessage(const std::filesystem::path& path, int error);
+
  private:
+  // Buffered writes to a file descriptor that keep the errno of the first
+  // failed write() or close() (std::ofstream loses it).
+  class FileBuffer;
+
   std::filesystem::path path_;
   std::filesystem::path tmp_path_;
-  std::ofstream out_;
+  std::unique_ptr<FileBuffer> buffer_;
+  std::ostream out_{nullptr};
   bool committed_ = false;
 };
 

@@ -44,4 +44,21 @@ std::string FormatNsAsSeconds(int64_t t_ns);
 // A CSV field in double quotes, inner quotes doubled (RFC 4180).
 std::string CsvQuote(std::string_view text);
 
+// Whether `text` is well-formed UTF-8 (no overlong forms, surrogates or
+// code points above U+10FFFF).
+bool IsValidUtf8(std::string_view text);
+
+// The longest prefix of `text` of at most `max_bytes` bytes that does not end
+// inside a UTF-8 character, so that cutting user text for a message keeps the
+// message valid UTF-8.
+std::string_view Utf8Prefix(std::string_view text, size_t max_bytes);
+
+// User text (a camera or file name) made safe to quote inside a one-line
+// error message: backslash and double quote are backslash-escaped, newline,
+// carriage return and tab become \n, \r and \t, other control characters
+// (C0, DEL, C1) and the Unicode line and paragraph separators become
+// \xHH or \u{HHHH}, bytes that are not UTF-8 become \xHH. Other UTF-8
+// characters are kept as they are. The caller adds the quotes.
+std::string EscapeForMessage(std::string_view text);
+
 }  // namespace mcvo
