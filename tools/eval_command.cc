@@ -17,8 +17,8 @@
 #include "mcvo/pipeline/run_manifest.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
-#include "mcvo/util/output_folder.h"
 #include "mcvo/util/file.h"
+#include "mcvo/util/output_folder.h"
 #include "mcvo/util/strings.h"
 
 namespace mcvo::tools {

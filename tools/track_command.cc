@@ -27,11 +27,11 @@
 #include "mcvo/io/json_util.h"
 #include "mcvo/pipeline/frame_source.h"
 #include "mcvo/util/args.h"
-#include "mcvo/util/error.h"
 #include "mcvo/util/cancel.h"
+#include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
-#include "mcvo/util/output_folder.h"
 #include "mcvo/util/logging.h"
+#include "mcvo/util/output_folder.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/progress.h"
 #include "mcvo/util/strings.h"
@@ -196,7 +196,8 @@ int RunTrack(int argc, const char* const* argv) {
   DatasetOptions dataset_options = MakeDatasetOptions(dataset);
   if (dataset_options.cameras.empty()) dataset_options.cameras = options.dataset.cameras;
   const DatasetIndex index = OpenDataset(dataset_options);
-  CheckOptionsAgainstRig(options, index.rig, config_path.empty() ? std::string("built-in defaults") : config_path);
+  CheckOptionsAgainstRig(options, index.rig,
+                         config_path.empty() ? std::string("built-in defaults") : config_path);
   // Never written over or inside an input (util/output_folder.h).
   const std::vector<std::filesystem::path> inputs = {dataset_options.root, index.root, config_path,
                                                      options.frontend.model_path};

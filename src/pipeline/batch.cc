@@ -264,7 +264,8 @@ BatchRunResult ExecuteRun(const BatchRunSpec& spec, const BatchOptions& options,
     result = BatchRunResult();
     result.name = spec.name;
     result.status = BatchRunStatus::kFailed;
-    result.note = OneLine(StrCat("out of memory", stage.empty() ? std::string() : " in " + stage, " (", e.what(), ")"));
+    result.note =
+        OneLine(StrCat("out of memory", stage.empty() ? std::string() : " in " + stage, " (", e.what(), ")"));
   } catch (const std::exception& e) {
     // An error on the way out of a cancelled run (a read interrupted by the signal).
     if (const int signal_number = CancelSignal(); signal_number != 0) throw Cancelled(signal_number);

@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <chrono>
 #include <map>
-#include <set>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -19,12 +19,12 @@
 #include "mcvo/io/rig_io.h"
 #include "mcvo/loop/vocabulary.h"
 #include "mcvo/pipeline/frame_source.h"
+#include "mcvo/util/cancel.h"
 #include "mcvo/util/enum_names.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
 #include "mcvo/util/output_folder.h"
-#include "mcvo/util/cancel.h"
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/progress.h"
 #include "mcvo/util/sha256.h"
@@ -115,9 +115,9 @@ void LogRunSummary(const RunSummary& summary, const std::filesystem::path& out_d
 // the config, the track file, the vocabulary and the detector's model.
 std::vector<std::filesystem::path> RunInputPaths(const RunRequest& request, const DatasetIndex& index,
                                                  const std::filesystem::path& vocabulary) {
-  std::vector<std::filesystem::path> inputs = {request.dataset.root, index.root, request.config_path,
-                                               request.tracks, vocabulary,
-                                               std::filesystem::path(request.options.frontend.model_path)};
+  std::vector<std::filesystem::path> inputs = {
+      request.dataset.root, index.root, request.config_path,
+      request.tracks,       vocabulary, std::filesystem::path(request.options.frontend.model_path)};
   std::set<std::filesystem::path> folders;
   for (const DatasetFrame& frame : index.frames) {
     for (const std::filesystem::path& image : frame.images) {
@@ -142,7 +142,8 @@ struct FileStamp {
   }
 };
 
-std::vector<FileStamp> StampRunFiles(const DatasetIndex& index, const std::filesystem::path& tracks, int frames) {
+std::vector<FileStamp> StampRunFiles(const DatasetIndex& index, const std::filesystem::path& tracks,
+                                     int frames) {
   std::vector<FileStamp> stamps;
   auto add = [&](const std::filesystem::path& path) {
     FileStamp stamp;
@@ -243,8 +244,8 @@ std::string HashDatasetContent(const DatasetIndex& index, int frames) {
     for (const StampedPose& pose : gt.poses) {
       const Eigen::Quaterniond& q = pose.world_from_body.rotation;
       const Eigen::Vector3d& t = pose.world_from_body.translation;
-      hash.Update(StrCat(pose.t_ns, " ", pose.frame_index, " ", FormatDouble(t.x()), " ", FormatDouble(t.y()), " ",
-                         FormatDouble(t.z()), " ", FormatDouble(q.x()), " ", FormatDouble(q.y()), " ",
+      hash.Update(StrCat(pose.t_ns, " ", pose.frame_index, " ", FormatDouble(t.x()), " ", FormatDouble(t.y()),
+                         " ", FormatDouble(t.z()), " ", FormatDouble(q.x()), " ", FormatDouble(q.y()), " ",
                          FormatDouble(q.z()), " ", FormatDouble(q.w()), "\n"));
     }
   }
@@ -252,7 +253,8 @@ std::string HashDatasetContent(const DatasetIndex& index, int frames) {
     const cv::Mat& mask = index.masks[c];
     hash.Update(StrCat("mask ", c, " ", mask.cols, "x", mask.rows, " ", mask.type(), "\n"));
     for (int row = 0; row < mask.rows; ++row) {
-      hash.Update(std::string_view(reinterpret_cast<const char*>(mask.ptr(row)), mask.cols * mask.elemSize()));
+      hash.Update(
+          std::string_view(reinterpret_cast<const char*>(mask.ptr(row)), mask.cols * mask.elemSize()));
     }
   }
   return hash.HexDigest();

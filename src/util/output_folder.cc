@@ -85,7 +85,8 @@ std::string WhyNotReplaceable(const fs::path& out, bool force, const std::string
   const fs::file_status status = fs::symlink_status(out, ec);
   if (ec || !fs::exists(status)) return {};
   if (fs::is_symlink(status)) {
-    return "is a symbolic link; give the folder itself (mcvo replaces the folder, which would replace the link)";
+    return "is a symbolic link; give the folder itself (mcvo replaces the folder, which would replace the "
+           "link)";
   }
   if (!fs::is_directory(status)) return "exists and is not a folder";
   if (IsEmptyFolder(out)) return {};
@@ -126,7 +127,8 @@ std::string OverlapWithInput(const fs::path& out, const fs::path& input) {
 
 void CheckOutputFile(const fs::path& out, const std::vector<fs::path>& inputs, const std::string& option) {
   std::error_code ec;
-  if (fs::is_directory(out, ec)) MCVO_THROW_INPUT(out.string(), ": ", option, ": is a folder, expected a file");
+  if (fs::is_directory(out, ec))
+    MCVO_THROW_INPUT(out.string(), ": ", option, ": is a folder, expected a file");
   for (const fs::path& input : inputs) {
     if (const std::string overlap = OverlapWithInput(out, input); !overlap.empty()) {
       MCVO_THROW_INPUT(out.string(), ": ", option, ": ", overlap, "; mcvo never writes over its inputs");
@@ -164,8 +166,9 @@ OutputFolder::OutputFolder(const fs::path& out, OutputFolderOptions options)
     staging_ = out_.parent_path() / SiblingName(name, ".tmp-" + std::to_string(::getpid()));
     std::error_code ec;
     if (fs::exists(fs::symlink_status(staging_, ec))) {
-      MCVO_THROW_INPUT(staging_.string(), ": exists and is not a staging folder of mcvo; remove it or choose "
-                                          "another ",
+      MCVO_THROW_INPUT(staging_.string(),
+                       ": exists and is not a staging folder of mcvo; remove it or choose "
+                       "another ",
                        option);
     }
     if (!fs::create_directory(staging_, ec) || ec) {
@@ -196,7 +199,8 @@ void OutputFolder::Lock() {
   for (int attempt = 0; attempt < 100; ++attempt) {
     const int fd = ::open(lock_path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (fd < 0) {
-      MCVO_THROW_INPUT(out_.string(), ": cannot create the lock file ", lock_path_.string(), ": ", ErrnoText());
+      MCVO_THROW_INPUT(out_.string(), ": cannot create the lock file ", lock_path_.string(), ": ",
+                       ErrnoText());
     }
     if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
       const int error = errno;
@@ -216,8 +220,8 @@ void OutputFolder::Lock() {
     // holder we waited for: the lock counts only on the file at the path.
     struct stat held {};
     struct stat at_path {};
-    if (::fstat(fd, &held) == 0 && ::stat(lock_path_.c_str(), &at_path) == 0 && held.st_dev == at_path.st_dev &&
-        held.st_ino == at_path.st_ino) {
+    if (::fstat(fd, &held) == 0 && ::stat(lock_path_.c_str(), &at_path) == 0 &&
+        held.st_dev == at_path.st_dev && held.st_ino == at_path.st_ino) {
       const std::string pid = std::to_string(::getpid()) + "\n";
       if (::ftruncate(fd, 0) != 0 || ::pwrite(fd, pid.data(), pid.size(), 0) < 0) {
         // The pid is for messages only; the lock holds without it.
@@ -248,7 +252,8 @@ void OutputFolder::RemoveStaleStaging() const {
   std::vector<fs::path> stale;
   for (fs::directory_iterator it(parent, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string entry = it->path().filename().string();
-    if (entry.compare(0, std::min<size_t>(name.size(), 100), name, 0, std::min<size_t>(name.size(), 100)) != 0)
+    if (entry.compare(0, std::min<size_t>(name.size(), 100), name, 0, std::min<size_t>(name.size(), 100)) !=
+        0)
       continue;
     const long staging_pid = SiblingPid(entry, name, ".tmp-");
     const long old_pid = SiblingPid(entry, name, ".old-");
@@ -258,9 +263,10 @@ void OutputFolder::RemoveStaleStaging() const {
     const bool ours = IsRegularFile(it->path() / kStagingMarkerName) || HasOutputMarker(it->path());
     if (!ours) {
       if (!ProcessAlive(staging_pid >= 0 ? staging_pid : old_pid)) {
-        MCVO_LOG(kWarning, "output: ", it->path().string(),
-                 " looks like the staging folder of a process that ended, but holds no mcvo marker (an earlier "
-                 "mcvo version wrote it?): not removed, remove it yourself");
+        MCVO_LOG(
+            kWarning, "output: ", it->path().string(),
+            " looks like the staging folder of a process that ended, but holds no mcvo marker (an earlier "
+            "mcvo version wrote it?): not removed, remove it yourself");
       }
       continue;
     }
@@ -310,7 +316,8 @@ void OutputFolder::Commit() {
   if (::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, out_.c_str(), RENAME_EXCHANGE) == 0) {
     committed_ = true;
     fs::remove_all(staging_, ec);
-    if (ec) MCVO_LOG(kWarning, "output: cannot remove the replaced output ", staging_.string(), ": ", ec.message());
+    if (ec)
+      MCVO_LOG(kWarning, "output: cannot remove the replaced output ", staging_.string(), ": ", ec.message());
     return;
   }
   if (errno != EINVAL && errno != ENOSYS && errno != ENOTSUP) {
@@ -319,7 +326,8 @@ void OutputFolder::Commit() {
   // A file system without RENAME_EXCHANGE (NFS): the old output aside, the
   // new one in, the old one removed. An interruption between the two
   // renames is repaired by the next command on this output (RemoveStaleStaging).
-  const fs::path old = out_.parent_path() / SiblingName(out_.filename().string(), ".old-" + std::to_string(::getpid()));
+  const fs::path old =
+      out_.parent_path() / SiblingName(out_.filename().string(), ".old-" + std::to_string(::getpid()));
   fs::rename(out_, old, ec);
   if (ec) MCVO_THROW_INPUT(out_.string(), ": cannot move the old output aside: ", ec.message());
   fs::rename(staging_, out_, ec);

@@ -47,7 +47,8 @@ TEST(HashDatasetContent, ChangesWithTheGroundTruthTheTimesAndTheMasks) {
   EXPECT_NE(HashDatasetContent(nudged, 5), hash);
 
   DatasetIndex rotated = base;
-  rotated.ground_truth->poses[1].world_from_body.rotation = Eigen::Quaterniond(0.999, 0.0447, 0.0, 0.0).normalized();
+  rotated.ground_truth->poses[1].world_from_body.rotation =
+      Eigen::Quaterniond(0.999, 0.0447, 0.0, 0.0).normalized();
   EXPECT_NE(HashDatasetContent(rotated, 5), hash);
 
   DatasetIndex no_gt = base;

@@ -78,7 +78,8 @@ fs::path CopyOf(const fs::path& seq, const std::string& name) {
 std::map<std::string, std::string> Contents(const fs::path& dir) {
   std::map<std::string, std::string> files;
   for (const auto& entry : fs::recursive_directory_iterator(dir)) {
-    if (entry.is_regular_file()) files[fs::relative(entry.path(), dir).string()] = mcvo::Sha256File(entry.path());
+    if (entry.is_regular_file())
+      files[fs::relative(entry.path(), dir).string()] = mcvo::Sha256File(entry.path());
   }
   return files;
 }
@@ -105,8 +106,8 @@ TEST(OutputSafety, ForceNeverDeletesTheDatasetOrItsParent) {
   const fs::path seq = CopyOf(Small(), "force_parent/seq");
   const auto before = Contents(parent);
   for (const fs::path& out : {seq, parent, seq / "runs" / "r1"}) {
-    const Result r = RunMcvoWithin(kLimitSeconds, "run --dataset " + Quote(seq.string()) + " --out " +
-                                                      Quote(out.string()) + " --force");
+    const Result r = RunMcvoWithin(
+        kLimitSeconds, "run --dataset " + Quote(seq.string()) + " --out " + Quote(out.string()) + " --force");
     ExpectOneErrorLine(r, 3, "input");
     EXPECT_EQ(Contents(parent), before) << out;
   }
@@ -131,8 +132,8 @@ TEST(OutputSafety, ASecondRunOnTheSameOutRefusesAtOnceNamingTheLock) {
   ASSERT_GE(fd, 0);
   ASSERT_EQ(::flock(fd, LOCK_EX), 0);
   const auto start = std::chrono::steady_clock::now();
-  const Result r =
-      RunMcvoWithin(kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " + Quote(out.string()));
+  const Result r = RunMcvoWithin(
+      kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " + Quote(out.string()));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ExpectOneErrorLine(r, 3, ".locked.lock");
   EXPECT_NE(r.output.find("another mcvo"), std::string::npos) << r.output;
@@ -209,8 +210,8 @@ TEST(OutputSafety, AKilledRunsStagingIsRemovedByTheNextRun) {
   ::kill(pid, SIGKILL);
   EXPECT_EQ(WaitExit(pid), 1000 + SIGKILL);
   ASSERT_TRUE(fs::exists(staging));
-  const Result r =
-      RunMcvoWithin(kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " + Quote(out.string()));
+  const Result r = RunMcvoWithin(
+      kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " + Quote(out.string()));
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("removed the stale staging folder"), std::string::npos) << r.output;
   EXPECT_EQ(Names(folder), (std::vector<std::string>{"log.txt", "out"}));
@@ -310,20 +311,22 @@ TEST(OutputSafety, EvalTrackAndSynthNeverWriteOverTheirInputs) {
                                                       Quote((seq / "rig.json").string())),
                      3, "input");
   ExpectOneErrorLine(RunMcvoWithin(kLimitSeconds, "synth --rig " + Quote((seq / "rig.json").string()) +
-                                                      " --scene indoor --frames 1 --out " + Quote(seq.string()) +
-                                                      " --force"),
+                                                      " --scene indoor --frames 1 --out " +
+                                                      Quote(seq.string()) + " --force"),
                      3, "input");
   EXPECT_EQ(Contents(seq), before);
   // eval --out twice: the second needs --force, and replaces only its own folder.
   const fs::path eval_out = Root() / "eval_out";
-  EXPECT_EQ(RunMcvoWithin(kLimitSeconds, "eval --gt " + gt + " --est " + gt + " --out " + Quote(eval_out.string()))
-                .exit_code,
-            0);
-  EXPECT_EQ(RunMcvoWithin(kLimitSeconds, "eval --gt " + gt + " --est " + gt + " --out " + Quote(eval_out.string()))
-                .exit_code,
-            3);
-  EXPECT_EQ(RunMcvoWithin(kLimitSeconds,
-                          "eval --gt " + gt + " --est " + gt + " --out " + Quote(eval_out.string()) + " --force")
+  EXPECT_EQ(
+      RunMcvoWithin(kLimitSeconds, "eval --gt " + gt + " --est " + gt + " --out " + Quote(eval_out.string()))
+          .exit_code,
+      0);
+  EXPECT_EQ(
+      RunMcvoWithin(kLimitSeconds, "eval --gt " + gt + " --est " + gt + " --out " + Quote(eval_out.string()))
+          .exit_code,
+      3);
+  EXPECT_EQ(RunMcvoWithin(kLimitSeconds, "eval --gt " + gt + " --est " + gt + " --out " +
+                                             Quote(eval_out.string()) + " --force")
                 .exit_code,
             0);
   EXPECT_TRUE(fs::is_regular_file(eval_out / "eval.json"));
@@ -331,8 +334,8 @@ TEST(OutputSafety, EvalTrackAndSynthNeverWriteOverTheirInputs) {
 
 TEST(OutputSafety, LongOutNamesAndSymbolicLinks) {
   const fs::path out = Root() / std::string(250, 'o');
-  const Result r =
-      RunMcvoWithin(kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " + Quote(out.string()));
+  const Result r = RunMcvoWithin(
+      kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " + Quote(out.string()));
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(fs::is_regular_file(out / "run.json"));
   const fs::path target = Root() / "link_target";
