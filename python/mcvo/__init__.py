@@ -34,7 +34,8 @@ from . import _mcvo
 
 __all__ = [
     "Camera", "Dataset", "InputError", "Rig", "Run", "UsageError", "__version__", "evaluate", "log_level",
-    "open_dataset", "read_run", "read_trajectory", "run", "set_log_level", "synth", "write_trajectory",
+    "open_dataset", "read_csv_columns", "read_run", "read_trajectory", "run", "set_log_level", "synth",
+    "write_trajectory",
 ]
 
 for _cls in (Camera, Dataset, Rig, InputError, UsageError):
