@@ -4,6 +4,7 @@
 #   make         build (Release) into build/
 #   make test    build and run the test suite (ctest)
 #   make demo    build and run the default job on the built-in example
+#   make install install the Python module mcvo into the system python3 (cmake --install)
 #   make format  clang-format all sources in place
 #   make lint    clang-tidy over src/ and tools/ (uses build/compile_commands.json)
 #   make fuzz    libFuzzer targets of the input readers, FUZZ_SECONDS each (docs/fuzzing.md)
@@ -21,16 +22,19 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # slurm-wlm and munge: the cluster test starts a one-node Slurm (tests/cluster/).
 # librosbag-storage-dev and the ROS message headers read ROS1 bags (--format
 # rosbag); no ROS installation is needed.
+# pybind11-dev and python3-dev build the Python module (docs/python.md);
+# numpy, pytest and matplotlib are what it, its tests and examples/python use.
 DEB_PACKAGES := build-essential cmake pkg-config git ca-certificates \
   libeigen3-dev libceres-dev libsuitesparse-dev libopenblas0-serial libssl-dev libgoogle-glog-dev libgflags-dev \
   libopencv-dev libopencv-contrib-dev libdeflate-dev nlohmann-json3-dev libyaml-cpp-dev \
   librosbag-storage-dev libsensor-msgs-dev libgeometry-msgs-dev libnav-msgs-dev \
   libgtest-dev libgmock-dev libopengv-dev colmap chromium \
-  clang-format clang-tidy clang libclang-rt-14-dev slurm-wlm munge
+  clang-format clang-tidy clang libclang-rt-14-dev slurm-wlm munge \
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
 
 SOURCES := $(shell find src include tools tests -name '*.cc' -o -name '*.h' 2>/dev/null)
 
-.PHONY: all build deps configure test demo format lint fuzz clean
+.PHONY: all build deps configure test demo install format lint fuzz clean
 
 all: build
 
@@ -51,6 +55,10 @@ test: build
 
 demo: build
 	./tools/demo.sh $(BUILD_DIR)/mcvo
+
+# The Python module mcvo, into the system python3's site-packages (docs/python.md).
+install: build
+	$(SUDO) cmake --install $(BUILD_DIR)
 
 format:
 	clang-format -i $(SOURCES)
