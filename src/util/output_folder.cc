@@ -199,8 +199,8 @@ void OutputFolder::Lock() {
   for (int attempt = 0; attempt < 100; ++attempt) {
     const int fd = ::open(lock_path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (fd < 0) {
-      MCVO_THROW_INPUT(out_.string(), ": cannot create the lock file ", lock_path_.string(), ": ",
-                       ErrnoText());
+      MCVO_THROW_INPUT(out_.string(), ": cannot create the output folder: cannot create its lock file ",
+                       lock_path_.string(), ": ", ErrnoText());
     }
     if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
       const int error = errno;

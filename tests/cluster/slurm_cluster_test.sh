@@ -153,7 +153,14 @@ check "the merged summary: 1 ok, 3 skipped" grep -q '^4 runs: 1 ok, 3 skipped (u
 
 # 4. A task cancelled mid-run; a second submission while it runs.
 wait "$synth_long" || { cat synth_long.log; fail "synth of the long sequence"; }
-echo '{"runs": [{"name": "slow", "dataset": {"root": "data/long"}, "threads": 1}]}' > slow.json
+# The slow run must still be running when the test acts on it, however fast
+# the machine: a config that tracks about 20 times the features (about 20 s
+# on one core of the 2-core test machine, where the default takes 2 s).
+cat > slow_config.json <<'CONFIG'
+{"frontend": {"max_features_pinhole": 2000, "min_distance_px": 2, "pixel_scale_reference_px": 0},
+ "backend": {"max_iterations": 50}}
+CONFIG
+echo '{"runs": [{"name": "slow", "dataset": {"root": "data/long"}, "config": "slow_config.json", "threads": 1}]}' > slow.json
 wait_staging() { # the run has started writing
   local deadline=$(($(date +%s) + 60))
   until [ -n "$(find slow -maxdepth 1 -name 'slow.tmp-*' -print -quit 2> /dev/null)" ]; do

@@ -263,10 +263,22 @@ std::vector<Case> Catalogue() {
                3, {"{w}/broken.json", "line 3"}});
   // output folder
   c.push_back({"out_under_a_file",
-               [](auto d, auto, auto) { return RunArgs(d, d / "rig.json" / "out"); }, 3,
-               {"{d}/rig.json/out", "cannot create the output folder"}});
-  c.push_back({"out_is_a_file", [](auto d, auto, auto) { return RunArgs(d, d / "frames.csv"); }, 3,
-               {"{d}/frames.csv", "not a folder"}});
+               [](auto d, auto w, auto) {
+                 Write(w / "notes.txt", "a file\n");
+                 return RunArgs(d, w / "notes.txt" / "out");
+               },
+               3, {"{w}/notes.txt/out", "cannot create the output folder"}});
+  c.push_back({"out_is_a_file",
+               [](auto d, auto w, auto) {
+                 Write(w / "notes.txt", "a file\n");
+                 return RunArgs(d, w / "notes.txt");
+               },
+               3, {"{w}/notes.txt", "not a folder"}});
+  // --out over or inside the dataset (util/output_folder.h): refused, the dataset untouched.
+  c.push_back({"out_inside_the_dataset", [](auto d, auto, auto) { return RunArgs(d, d / "frames.csv"); }, 3,
+               {"{d}/frames.csv", "inside the input folder {d}"}});
+  c.push_back({"out_is_the_dataset", [](auto d, auto, auto) { return RunArgs(d, d, " --force"); }, 3,
+               {"is the input {d}"}});
   c.push_back({"out_not_creatable", [](auto d, auto, auto) { return RunArgs(d, "/proc/mcvo_out"); }, 3,
                {"/proc/mcvo_out", "cannot create the output folder"}});
   // command line
