@@ -27,6 +27,7 @@
 #include <Eigen/Core>
 
 #include "mcvo/dataset/dataset.h"
+#include "mcvo/dataset/image_file.h"
 #include "mcvo/util/error.h"
 #include "mcvo/util/file.h"
 #include "mcvo/util/logging.h"
@@ -222,26 +223,15 @@ void SplitProjection(const Matrix34d& p, const std::string& where, Eigen::Matrix
   *t = Eigen::Vector3d((p(0, 3) - (*k)(0, 2) * tz) / fx, ty, tz);
 }
 
-// Width and height from a PNG header (IHDR), or an InputError naming the file.
+// Width and height from a PNG header (ReadImageHeader, image_file.h), or an
+// InputError naming the file.
 std::pair<int, int> PngSize(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) MCVO_THROW_INPUT(path.string(), ": cannot open image");
-  unsigned char head[24] = {};
-  in.read(reinterpret_cast<char*>(head), sizeof(head));
-  static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (in.gcount() < static_cast<std::streamsize>(sizeof(head)) ||
-      !std::equal(kSignature, kSignature + 8, head) ||
-      std::string(reinterpret_cast<const char*>(head + 12), 4) != "IHDR") {
+  const std::optional<ImageHeader> header = ReadImageHeader(path);
+  if (!header || std::string(header->format) != "png")
     MCVO_THROW_INPUT(path.string(), ": not a PNG image (bad or truncated header)");
-  }
-  auto be32 = [&](int o) {
-    return static_cast<int64_t>(head[o]) << 24 | static_cast<int64_t>(head[o + 1]) << 16 |
-           static_cast<int64_t>(head[o + 2]) << 8 | static_cast<int64_t>(head[o + 3]);
-  };
-  const int64_t width = be32(16), height = be32(20);
-  if (width < 1 || height < 1 || width > 1'000'000 || height > 1'000'000)
-    MCVO_THROW_INPUT(path.string(), ": PNG header gives an invalid size ", width, "x", height);
-  return {static_cast<int>(width), static_cast<int>(height)};
+  if (header->width > 1'000'000 || header->height > 1'000'000)
+    MCVO_THROW_INPUT(path.string(), ": PNG header gives an invalid size ", header->width, "x", header->height);
+  return {static_cast<int>(header->width), static_cast<int>(header->height)};
 }
 
 // The NNNNNN.png images of a camera folder, by frame index, and their size
