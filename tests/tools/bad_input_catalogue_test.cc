@@ -27,26 +27,16 @@
 namespace {
 
 namespace fs = std::filesystem;
+using mcvo::test::ErrorLines;
 using mcvo::test::Quote;
 using mcvo::test::Result;
 using mcvo::test::RunMcvoWithin;
+using mcvo::test::SmallMonoRender;
 
 constexpr int kLimitSeconds = 60;
 
 fs::path Root() {
   static const fs::path dir = mcvo::test::ProcessScratch("mcvo_bad_input_test");
-  return dir;
-}
-
-// 12 frames of the one-camera preset, 352 x 94: rendered once per build.
-const fs::path& Base() {
-  static const fs::path dir = [] {
-    std::string error;
-    const fs::path seq =
-        mcvo::test::CachedSynth("--preset mono --frames 12 --image-scale 0.25 --samples 1 --seed 3", &error);
-    EXPECT_FALSE(seq.empty()) << error;
-    return seq;
-  }();
   return dir;
 }
 
@@ -57,8 +47,8 @@ void Write(const fs::path& path, const std::string& text) {
 // Replaces the first match of `pattern` in the file (the case fails when there is none).
 void Edit(const fs::path& path, const std::string& pattern, const std::string& replacement) {
   const std::string text = Read(path);
-  const std::string edited = std::regex_replace(text, std::regex(pattern), replacement,
-                                                std::regex_constants::format_first_only);
+  const std::string edited =
+      std::regex_replace(text, std::regex(pattern), replacement, std::regex_constants::format_first_only);
   ASSERT_NE(edited, text) << "pattern " << pattern << " not in " << path;
   Write(path, edited);
 }
@@ -68,22 +58,8 @@ fs::path CopyOfBase(const std::string& name) {
   const fs::path dir = Root() / "cases" / name;
   fs::remove_all(dir);
   fs::create_directories(dir.parent_path());
-  fs::copy(Base(), dir, fs::copy_options::recursive);
+  fs::copy(SmallMonoRender(), dir, fs::copy_options::recursive);
   return dir;
-}
-
-std::vector<std::string> ErrorLines(const std::string& output) {
-  std::vector<std::string> lines;
-  size_t start = 0;
-  while (start < output.size()) {
-    size_t end = output.find('\n', start);
-    if (end == std::string::npos) end = output.size();
-    const std::string line = output.substr(start, end - start);
-    // "mcvo run: error: ..." or "mcvo run: usage error: ..." (not "reprojection error" in an info line).
-    if (line.rfind("mcvo ", 0) == 0 && line.find(" error: ") != std::string::npos) lines.push_back(line);
-    start = end + 1;
-  }
-  return lines;
 }
 
 struct Case {
@@ -91,8 +67,8 @@ struct Case {
   // Breaks the copy of the dataset `d` (and may write other files under `w`);
   // returns the mcvo arguments (quoted), which write any output into `out`.
   std::function<std::string(const fs::path& d, const fs::path& w, const fs::path& out)> setup;
-  int exit_code;                       // 2 or 3
-  std::vector<std::string> expected;   // each in the error line ("{d}", "{w}" replaced)
+  int exit_code;                      // 2 or 3
+  std::vector<std::string> expected;  // each in the error line ("{d}", "{w}" replaced)
 };
 
 std::string RunArgs(const fs::path& d, const fs::path& out, const std::string& extra = "") {
@@ -122,69 +98,112 @@ void AppendCopyOfFirstCamera(const fs::path& rig_json, const std::string& name) 
 std::vector<Case> Catalogue() {
   std::vector<Case> c;
   // rig.json
-  c.push_back({"rig_empty", [](auto d, auto, auto out) { Write(d / "rig.json", ""); return RunArgs(d, out); }, 3,
+  c.push_back({"rig_empty",
+               [](auto d, auto, auto out) {
+                 Write(d / "rig.json", "");
+                 return RunArgs(d, out);
+               },
+               3,
                {"{d}/rig.json", "line 1"}});
   c.push_back({"rig_truncated",
                [](auto d, auto, auto out) {
                  Write(d / "rig.json", Read(d / "rig.json").substr(0, 100));
                  return RunArgs(d, out);
                },
-               3, {"{d}/rig.json", "line 7"}});
+               3,
+               {"{d}/rig.json", "line 7"}});
   c.push_back({"rig_infinite",
-               [](auto d, auto, auto out) { Edit(d / "rig.json", "\"params\": \\[[0-9.]+", "\"params\": [1e999");
-                 return RunArgs(d, out); },
-               3, {"{d}/rig.json", "/cameras/0/params/0", "out of range"}});
+               [](auto d, auto, auto out) {
+                 Edit(d / "rig.json", "\"params\": \\[[0-9.]+", "\"params\": [1e999");
+                 return RunArgs(d, out);
+               },
+               3,
+               {"{d}/rig.json", "/cameras/0/params/0", "out of range"}});
   c.push_back({"rig_not_orthonormal",
                [](auto d, auto, auto out) {
                  Edit(d / "rig.json", "\"quaternion_wxyz\": \\[[^\\]]*\\]",
                       "\"rotation\": [[1, 0, 0], [0, 1, 0.1], [0, 0, 1]]");
                  return RunArgs(d, out);
                },
-               3, {"{d}/rig.json", "/cameras/0/cam_from_rig/rotation", "not orthonormal"}});
+               3,
+               {"{d}/rig.json", "/cameras/0/cam_from_rig/rotation", "not orthonormal"}});
   c.push_back({"rig_negative_focal",
-               [](auto d, auto, auto out) { Edit(d / "rig.json", "\"params\": \\[", "\"params\": [-");
-                 return RunArgs(d, out); },
-               3, {"{d}/rig.json", "/cameras/0/params", "must be > 0"}});
+               [](auto d, auto, auto out) {
+                 Edit(d / "rig.json", "\"params\": \\[", "\"params\": [-");
+                 return RunArgs(d, out);
+               },
+               3,
+               {"{d}/rig.json", "/cameras/0/params", "must be > 0"}});
   c.push_back({"rig_zero_width",
-               [](auto d, auto, auto out) { Edit(d / "rig.json", "\"width\": [0-9]+", "\"width\": 0");
-                 return RunArgs(d, out); },
-               3, {"{d}/rig.json", "/cameras/0/width", ">= 1"}});
+               [](auto d, auto, auto out) {
+                 Edit(d / "rig.json", "\"width\": [0-9]+", "\"width\": 0");
+                 return RunArgs(d, out);
+               },
+               3,
+               {"{d}/rig.json", "/cameras/0/width", ">= 1"}});
   c.push_back({"rig_absurd_size",
-               [](auto d, auto, auto out) { Edit(d / "rig.json", "\"height\": [0-9]+", "\"height\": 2000000000");
-                 return RunArgs(d, out); },
-               3, {"{d}/rig.json", "/cameras/0/height", "<="}});
+               [](auto d, auto, auto out) {
+                 Edit(d / "rig.json", "\"height\": [0-9]+", "\"height\": 2000000000");
+                 return RunArgs(d, out);
+               },
+               3,
+               {"{d}/rig.json", "/cameras/0/height", "<="}});
   c.push_back({"rig_unknown_model",
-               [](auto d, auto, auto out) { Edit(d / "rig.json", "\"pinhole\"", "\"fisheye624\"");
-                 return RunArgs(d, out); },
-               3, {"{d}/rig.json", "/cameras/0/model", "fisheye624"}});
+               [](auto d, auto, auto out) {
+                 Edit(d / "rig.json", "\"pinhole\"", "\"fisheye624\"");
+                 return RunArgs(d, out);
+               },
+               3,
+               {"{d}/rig.json", "/cameras/0/model", "fisheye624"}});
   c.push_back({"rig_duplicate_names",
                [](auto d, auto, auto out) {
                  AppendCopyOfFirstCamera(d / "rig.json", "image_00");
                  return RunArgs(d, out);
                },
-               3, {"{d}/rig.json", "/cameras/1/name", "duplicate camera name"}});
+               3,
+               {"{d}/rig.json", "/cameras/1/name", "duplicate camera name"}});
   c.push_back({"rig_camera_count_not_frames",
                [](auto d, auto, auto out) {
                  AppendCopyOfFirstCamera(d / "rig.json", "image_01");
                  return RunArgs(d, out);
                },
-               3, {"{d}/frames.csv:1", "image_01"}});
+               3,
+               {"{d}/frames.csv:1", "image_01"}});
   // frames.csv
   c.push_back({"frames_out_of_order",
-               [](auto d, auto, auto out) { Edit(d / "frames.csv", "\n1200000000,", "\n1050000000,");
-                 return RunArgs(d, out); },
-               3, {"{d}/frames.csv:4", "does not increase"}});
+               [](auto d, auto, auto out) {
+                 Edit(d / "frames.csv", "\n1200000000,", "\n1050000000,");
+                 return RunArgs(d, out);
+               },
+               3,
+               {"{d}/frames.csv:4", "does not increase"}});
   c.push_back({"frames_duplicate_time",
-               [](auto d, auto, auto out) { Edit(d / "frames.csv", "\n1100000000,", "\n1000000000,");
-                 return RunArgs(d, out); },
-               3, {"{d}/frames.csv:3", "does not increase"}});
+               [](auto d, auto, auto out) {
+                 Edit(d / "frames.csv", "\n1100000000,", "\n1000000000,");
+                 return RunArgs(d, out);
+               },
+               3,
+               {"{d}/frames.csv:3", "does not increase"}});
   c.push_back({"frames_header_only",
-               [](auto d, auto, auto out) { Write(d / "frames.csv", "t_ns,image_00\n"); return RunArgs(d, out); }, 3,
+               [](auto d, auto, auto out) {
+                 Write(d / "frames.csv", "t_ns,image_00\n");
+                 return RunArgs(d, out);
+               },
+               3,
                {"{d}/frames.csv", "no frame"}});
-  c.push_back({"frames_empty", [](auto d, auto, auto out) { Write(d / "frames.csv", ""); return RunArgs(d, out); },
-               3, {"{d}/frames.csv", "header"}});
+  c.push_back({"frames_empty",
+               [](auto d, auto, auto out) {
+                 Write(d / "frames.csv", "");
+                 return RunArgs(d, out);
+               },
+               3,
+               {"{d}/frames.csv", "header"}});
   c.push_back({"image_missing",
-               [](auto d, auto, auto out) { fs::remove(Image(d, 5)); return RunArgs(d, out); }, 3,
+               [](auto d, auto, auto out) {
+                 fs::remove(Image(d, 5));
+                 return RunArgs(d, out);
+               },
+               3,
                {"{d}/images/image_00/000005.png", "missing", "frames.csv, frame 5"}});
   c.push_back({"image_is_a_folder",
                [](auto d, auto, auto out) {
@@ -192,27 +211,36 @@ std::vector<Case> Catalogue() {
                  fs::create_directory(Image(d, 5));
                  return RunArgs(d, out);
                },
-               3, {"{d}/images/image_00/000005.png", "is a folder", "frames.csv, frame 5"}});
+               3,
+               {"{d}/images/image_00/000005.png", "is a folder", "frames.csv, frame 5"}});
   c.push_back({"image_symlink_loop",
                [](auto d, auto, auto out) {
                  fs::remove(Image(d, 5));
                  fs::create_symlink("000005.png", Image(d, 5));
                  return RunArgs(d, out);
                },
-               3, {"{d}/images/image_00/000005.png", "symbolic link loop"}});
+               3,
+               {"{d}/images/image_00/000005.png", "symbolic link loop"}});
   c.push_back({"image_wrong_size",
                [](auto d, auto, auto out) {
                  cv::imwrite(Image(d, 5).string(), cv::Mat(50, 60, CV_8UC1, cv::Scalar(128)));
                  return RunArgs(d, out);
                },
-               3, {"{d}/images/image_00/000005.png", "60 x 50", "expects"}});
+               3,
+               {"{d}/images/image_00/000005.png", "60 x 50", "expects"}});
   c.push_back({"image_truncated_png",
                [](auto d, auto, auto out) {
                  Write(Image(d, 5), Read(Image(d, 5)).substr(0, 300));
                  return RunArgs(d, out);
                },
-               3, {"{d}/images/image_00/000005.png", "cannot decode image"}});
-  c.push_back({"image_zero_bytes", [](auto d, auto, auto out) { Write(Image(d, 5), ""); return RunArgs(d, out); }, 3,
+               3,
+               {"{d}/images/image_00/000005.png", "cannot decode image"}});
+  c.push_back({"image_zero_bytes",
+               [](auto d, auto, auto out) {
+                 Write(Image(d, 5), "");
+                 return RunArgs(d, out);
+               },
+               3,
                {"{d}/images/image_00/000005.png", "empty image file"}});
   // groundtruth.tum
   c.push_back({"gt_nan",
@@ -220,71 +248,96 @@ std::vector<Case> Catalogue() {
                  Edit(d / "groundtruth.tum", "\n(1\\.100000000) [^ ]+ ", "\n$1 nan ");
                  return RunArgs(d, out);
                },
-               3, {"{d}/groundtruth.tum:3", "finite number"}});
+               3,
+               {"{d}/groundtruth.tum:3", "finite number"}});
   c.push_back({"gt_short_row",
-               [](auto d, auto, auto out) { Edit(d / "groundtruth.tum", " [^ \n]+\n(1\\.2)", "\n$1");
-                 return RunArgs(d, out); },
-               3, {"{d}/groundtruth.tum:3", "expected 8 fields"}});
+               [](auto d, auto, auto out) {
+                 Edit(d / "groundtruth.tum", " [^ \n]+\n(1\\.2)", "\n$1");
+                 return RunArgs(d, out);
+               },
+               3,
+               {"{d}/groundtruth.tum:3", "expected 8 fields"}});
   c.push_back({"gt_quaternion_not_unit",
                [](auto d, auto, auto out) {
                  Edit(d / "groundtruth.tum", "\n(1\\.300000000( [^ ]+){3}) [^ ]+ ", "\n$1 0.5 ");
                  return RunArgs(d, out);
                },
-               3, {"{d}/groundtruth.tum:5", "not unit"}});
+               3,
+               {"{d}/groundtruth.tum:5", "not unit"}});
   // config
   c.push_back({"config_unknown_key",
                [](auto d, auto w, auto out) {
                  return RunArgs(d, out, Config(w, R"({"backend": {"window_sise": 10}})"));
                },
-               3, {"{w}/config.json", "/backend/window_sise", "unknown key"}});
+               3,
+               {"{w}/config.json", "/backend/window_sise", "unknown key"}});
   c.push_back({"config_wrong_type",
                [](auto d, auto w, auto out) {
                  return RunArgs(d, out, Config(w, R"({"backend": {"window_size": "ten"}})"));
                },
-               3, {"{w}/config.json", "/backend/window_size", "expected an integer"}});
+               3,
+               {"{w}/config.json", "/backend/window_size", "expected an integer"}});
   c.push_back({"config_window_size_0",
-               [](auto d, auto w, auto out) { return RunArgs(d, out, Config(w, R"({"backend": {"window_size": 0}})")); },
-               3, {"{w}/config.json", "/backend/window_size", ">= 2"}});
+               [](auto d, auto w, auto out) {
+                 return RunArgs(d, out, Config(w, R"({"backend": {"window_size": 0}})"));
+               },
+               3,
+               {"{w}/config.json", "/backend/window_size", ">= 2"}});
   c.push_back({"config_window_size_1",
                [](auto d, auto w, auto out) {
                  return RunArgs(d, out, Config(w, R"({"initializer": {"window_size": 1}})"));
                },
-               3, {"{w}/config.json", "/initializer/window_size", ">= 2"}});
+               3,
+               {"{w}/config.json", "/initializer/window_size", ">= 2"}});
   c.push_back({"config_zero_features",
                [](auto d, auto w, auto out) {
                  return RunArgs(d, out, Config(w, R"({"frontend": {"max_features_pinhole": 0}})"));
                },
-               3, {"{w}/config.json", "/frontend/max_features_pinhole"}});
+               3,
+               {"{w}/config.json", "/frontend/max_features_pinhole"}});
   c.push_back({"config_command_broken_json",
                [](auto, auto w, auto) {
                  Write(w / "broken.json", "{\"backend\": {\n  \"window_size\": 10,\n}");
                  return "config --config " + Quote((w / "broken.json").string());
                },
-               3, {"{w}/broken.json", "line 3"}});
+               3,
+               {"{w}/broken.json", "line 3"}});
   // output folder
   c.push_back({"out_under_a_file",
                [](auto d, auto w, auto) {
                  Write(w / "notes.txt", "a file\n");
                  return RunArgs(d, w / "notes.txt" / "out");
                },
-               3, {"{w}/notes.txt/out", "cannot create the output folder"}});
+               3,
+               {"{w}/notes.txt/out", "cannot create the output folder"}});
   c.push_back({"out_is_a_file",
                [](auto d, auto w, auto) {
                  Write(w / "notes.txt", "a file\n");
                  return RunArgs(d, w / "notes.txt");
                },
-               3, {"{w}/notes.txt", "not a folder"}});
+               3,
+               {"{w}/notes.txt", "not a folder"}});
   // --out over or inside the dataset (util/output_folder.h): refused, the dataset untouched.
-  c.push_back({"out_inside_the_dataset", [](auto d, auto, auto) { return RunArgs(d, d / "frames.csv"); }, 3,
+  c.push_back({"out_inside_the_dataset",
+               [](auto d, auto, auto) { return RunArgs(d, d / "frames.csv"); },
+               3,
                {"{d}/frames.csv", "inside the input folder {d}"}});
-  c.push_back({"out_is_the_dataset", [](auto d, auto, auto) { return RunArgs(d, d, " --force"); }, 3,
+  c.push_back({"out_is_the_dataset",
+               [](auto d, auto, auto) { return RunArgs(d, d, " --force"); },
+               3,
                {"is the input {d}"}});
-  c.push_back({"out_not_creatable", [](auto d, auto, auto) { return RunArgs(d, "/proc/mcvo_out"); }, 3,
+  c.push_back({"out_not_creatable",
+               [](auto d, auto, auto) { return RunArgs(d, "/proc/mcvo_out"); },
+               3,
                {"/proc/mcvo_out", "cannot create the output folder"}});
   // command line
-  c.push_back({"threads_negative", [](auto d, auto, auto out) { return RunArgs(d, out, " --threads -5"); }, 2,
+  c.push_back({"threads_negative",
+               [](auto d, auto, auto out) { return RunArgs(d, out, " --threads -5"); },
+               2,
                {"--threads", ">= 0"}});
-  c.push_back({"frames_negative", [](auto d, auto, auto out) { return RunArgs(d, out, " --frames -1"); }, 2,
+  c.push_back({"frames_negative",
+               [](auto d, auto, auto out) { return RunArgs(d, out, " --frames -1"); },
+               2,
                {"--frames", ">= 0"}});
   c.push_back({"dataset_symlink_loop",
                [](auto, auto w, auto out) {
@@ -292,7 +345,8 @@ std::vector<Case> Catalogue() {
                  fs::create_symlink(w / "loop_a", w / "loop_b");
                  return RunArgs(w / "loop_a", out);
                },
-               3, {"{w}/loop_a", "symbolic link loop"}});
+               3,
+               {"{w}/loop_a", "symbolic link loop"}});
   // eval, regress, batch
   c.push_back({"eval_empty_estimate",
                [](auto d, auto w, auto out) {
@@ -300,7 +354,8 @@ std::vector<Case> Catalogue() {
                  return "eval --gt " + Quote((d / "groundtruth.tum").string()) + " --est " +
                         Quote((w / "empty.tum").string()) + " --out " + Quote(out.string());
                },
-               3, {"{w}/empty.tum", "no data lines"}});
+               3,
+               {"{w}/empty.tum", "no data lines"}});
   c.push_back({"eval_no_time_overlap",
                [](auto d, auto w, auto out) {
                  std::string shifted = Read(d / "groundtruth.tum");
@@ -309,7 +364,8 @@ std::vector<Case> Catalogue() {
                  return "eval --gt " + Quote((d / "groundtruth.tum").string()) + " --est " +
                         Quote((w / "late.tum").string()) + " --out " + Quote(out.string());
                },
-               3, {"{w}/late.tum", "no pose matches"}});
+               3,
+               {"{w}/late.tum", "no pose matches"}});
   c.push_back({"regress_against_an_empty_folder",
                [](auto, auto w, auto) {
                  fs::create_directories(w / "empty_a");
@@ -317,19 +373,22 @@ std::vector<Case> Catalogue() {
                  return "regress --baseline " + Quote((w / "empty_a").string()) + " --candidate " +
                         Quote((w / "empty_b").string());
                },
-               3, {"{w}/empty_a", "no run.json"}});
+               3,
+               {"{w}/empty_a", "no run.json"}});
   c.push_back({"batch_manifest_broken",
                [](auto, auto w, auto out) {
                  Write(w / "manifest.json", "{\"runs\": [\n  {\"name\": \"a\"\n");
                  return "batch --manifest " + Quote((w / "manifest.json").string()) + " --out " +
                         Quote(out.string());
                },
-               3, {"{w}/manifest.json", "line 3"}});
+               3,
+               {"{w}/manifest.json", "line 3"}});
   return c;
 }
 
 std::string Substitute(std::string text, const fs::path& d, const fs::path& w) {
-  for (const auto& [key, value] : {std::pair<std::string, std::string>{"{d}", d.string()}, {"{w}", w.string()}}) {
+  for (const auto& [key, value] :
+       {std::pair<std::string, std::string>{"{d}", d.string()}, {"{w}", w.string()}}) {
     for (size_t at = text.find(key); at != std::string::npos; at = text.find(key, at + value.size())) {
       text.replace(at, key.size(), value);
     }
@@ -372,7 +431,7 @@ TEST(BadInputCatalogue, OddButValidInputsWork) {
   const fs::path d = Root() / "odd paths" / "séquence ü 1";
   fs::create_directories(d.parent_path());
   fs::remove_all(d);
-  fs::copy(Base(), d, fs::copy_options::recursive);
+  fs::copy(SmallMonoRender(), d, fs::copy_options::recursive);
   const cv::Mat image = cv::imread(Image(d, 5).string(), cv::IMREAD_GRAYSCALE);
   ASSERT_FALSE(image.empty());
   std::vector<uchar> jpeg;
@@ -398,9 +457,10 @@ TEST(BadInputCatalogue, BatchIsolatesARunWhoseDatasetIsMissing) {
   const fs::path w = Root() / "batch_missing";
   fs::remove_all(w);
   fs::create_directories(w);
-  Write(w / "manifest.json", "{\"runs\": [\n  {\"name\": \"gone\", \"dataset\": {\"root\": \"not_there\"}},\n"
-                             "  {\"name\": \"here\", \"dataset\": {\"root\": " +
-                                 nlohmann::json(Base().string()).dump() + "}, \"max_frames\": 3}\n]}");
+  Write(w / "manifest.json",
+        "{\"runs\": [\n  {\"name\": \"gone\", \"dataset\": {\"root\": \"not_there\"}},\n"
+        "  {\"name\": \"here\", \"dataset\": {\"root\": " +
+            nlohmann::json(SmallMonoRender().string()).dump() + "}, \"max_frames\": 3}\n]}");
   const Result r = RunMcvoWithin(kLimitSeconds, "batch --manifest " + Quote((w / "manifest.json").string()) +
                                                     " --out " + Quote((w / "out").string()));
   EXPECT_EQ(r.exit_code, 4) << r.output;

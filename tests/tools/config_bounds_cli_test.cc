@@ -15,38 +15,15 @@
 namespace {
 
 namespace fs = std::filesystem;
+using mcvo::test::ErrorLines;
 using mcvo::test::Quote;
 using mcvo::test::Result;
 using mcvo::test::RunMcvoWithin;
+using mcvo::test::SmallMonoRender;
 
 fs::path Root() {
   static const fs::path dir = mcvo::test::ProcessScratch("mcvo_config_bounds_cli_test");
   return dir;
-}
-
-// 12 frames of the one-camera preset, 352 x 94.
-const fs::path& Base() {
-  static const fs::path dir = [] {
-    std::string error;
-    const fs::path seq =
-        mcvo::test::CachedSynth("--preset mono --frames 12 --image-scale 0.25 --samples 1 --seed 3", &error);
-    EXPECT_FALSE(seq.empty()) << error;
-    return seq;
-  }();
-  return dir;
-}
-
-std::vector<std::string> ErrorLines(const std::string& output) {
-  std::vector<std::string> lines;
-  size_t start = 0;
-  while (start < output.size()) {
-    size_t end = output.find('\n', start);
-    if (end == std::string::npos) end = output.size();
-    const std::string line = output.substr(start, end - start);
-    if (line.rfind("mcvo ", 0) == 0 && line.find(" error: ") != std::string::npos) lines.push_back(line);
-    start = end + 1;
-  }
-  return lines;
 }
 
 struct Case {
@@ -66,7 +43,7 @@ void ExpectCleanFailure(const Case& c) {
   const fs::path config = dir / "cfg.json";
   std::ofstream(config) << c.json;
   const fs::path out = dir / "out";
-  const Result r = RunMcvoWithin(60, "run --dataset " + Quote(Base().string()) + " --config " +
+  const Result r = RunMcvoWithin(60, "run --dataset " + Quote(SmallMonoRender().string()) + " --config " +
                                          Quote(config.string()) + " --out " + Quote(out.string()));
   EXPECT_EQ(r.exit_code, 3) << r.output;
   const std::vector<std::string> lines = ErrorLines(r.output);
@@ -88,8 +65,8 @@ TEST(ConfigBoundsCli, TheIssuesValuesFailAtStartUpNamingTheKey) {
        "1001 is above the maximum 255"},
       {"clahe_tile_grid", R"({"frontend": {"clahe": {"tile_grid": 100000}}})", "/frontend/clahe/tile_grid",
        "100000 is above the maximum 256"},
-      {"anchor_half_size", R"({"frontend": {"anchor": {"half_size_px": 100000}}})", "/frontend/anchor/half_size_px",
-       "100000 is above the maximum 127"},
+      {"anchor_half_size", R"({"frontend": {"anchor": {"half_size_px": 100000}}})",
+       "/frontend/anchor/half_size_px", "100000 is above the maximum 127"},
       {"backend_window", R"({"backend": {"window_size": 2000000000}})", "/backend/window_size",
        "2000000000 is above the maximum 200"},
       {"loop_features", R"({"loop": {"features_per_camera": 1000000000}})", "/loop/features_per_camera",

@@ -92,4 +92,18 @@ inline std::filesystem::path CachedSynth(const std::string& synth_args, std::str
   return result;
 }
 
+// The 12-frame one-camera render (352 x 94 px) that the bad-input,
+// output-safety, hostile-name and config-bound CLI tests start from:
+// rendered once per build, shared through the cache.
+inline const std::filesystem::path& SmallMonoRender() {
+  static const std::filesystem::path dir = [] {
+    std::string error;
+    const std::filesystem::path seq =
+        CachedSynth("--preset mono --frames 12 --image-scale 0.25 --samples 1 --seed 3", &error);
+    EXPECT_FALSE(seq.empty()) << error;
+    return seq;
+  }();
+  return dir;
+}
+
 }  // namespace mcvo::test

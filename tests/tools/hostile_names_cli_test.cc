@@ -24,23 +24,12 @@ namespace fs = std::filesystem;
 using mcvo::test::Quote;
 using mcvo::test::Result;
 using mcvo::test::RunMcvoWithin;
+using mcvo::test::SmallMonoRender;
 
 constexpr int kLimitSeconds = 120;
 
 fs::path Scratch() {
   static const fs::path dir = mcvo::test::ProcessScratch("mcvo_hostile_names_test");
-  return dir;
-}
-
-// The same render as the bad-input catalogue (shared through the cache).
-const fs::path& Base() {
-  static const fs::path dir = [] {
-    std::string error;
-    const fs::path seq =
-        mcvo::test::CachedSynth("--preset mono --frames 12 --image-scale 0.25 --samples 1 --seed 3", &error);
-    EXPECT_FALSE(seq.empty()) << error;
-    return seq;
-  }();
   return dir;
 }
 
@@ -88,7 +77,7 @@ std::vector<std::string> Lines(const std::string& output) {
 
 // The base rig with its camera renamed to `json_name` (JSON string contents).
 std::string RigNamed(const std::string& json_name) {
-  const std::string rig = mcvo::ReadFileToString(Base() / "rig.json");
+  const std::string rig = mcvo::ReadFileToString(SmallMonoRender() / "rig.json");
   const std::string renamed =
       std::regex_replace(rig, std::regex("\"name\": \"[^\"]*\""), "\"name\": \"" + json_name + "\"",
                          std::regex_constants::format_first_only);
@@ -102,7 +91,7 @@ std::string RigNamed(const std::string& json_name) {
 // folder of the input and only the outputs could use it as one.
 void MakeDataset(const fs::path& dir, const std::string& json_name, const std::string& csv_name) {
   Write(dir / "rig.json", RigNamed(json_name));
-  std::istringstream in(mcvo::ReadFileToString(Base() / "frames.csv"));
+  std::istringstream in(mcvo::ReadFileToString(SmallMonoRender() / "frames.csv"));
   std::string line;
   std::string frames;
   bool header = true;
@@ -115,8 +104,8 @@ void MakeDataset(const fs::path& dir, const std::string& json_name, const std::s
     }
     const size_t comma = line.find(',');
     ASSERT_NE(comma, std::string::npos) << line;
-    frames +=
-        line.substr(0, comma + 1) + (Base() / line.substr(comma + 1)).lexically_normal().string() + "\n";
+    frames += line.substr(0, comma + 1) +
+              (SmallMonoRender() / line.substr(comma + 1)).lexically_normal().string() + "\n";
   }
   Write(dir / "frames.csv", frames);
 }
@@ -135,7 +124,7 @@ Outcome RunIn(const std::string& args) {
 }
 
 TEST(HostileNamesCli, RunRefusesACameraNamedToClimbOutOfOut) {
-  ASSERT_FALSE(Base().empty());
+  ASSERT_FALSE(SmallMonoRender().empty());
   const fs::path parent = Scratch() / "run" / "a" / "b";
   const fs::path data = parent / "data";
   MakeDataset(data, "../../../pwned", "../../../pwned");
@@ -154,7 +143,7 @@ TEST(HostileNamesCli, RunRefusesACameraNamedToClimbOutOfOut) {
 }
 
 TEST(HostileNamesCli, RunKeepsANewlineInTheNameOnOneLine) {
-  ASSERT_FALSE(Base().empty());
+  ASSERT_FALSE(SmallMonoRender().empty());
   const fs::path parent = Scratch() / "newline" / "a" / "b";
   const fs::path data = parent / "data";
   MakeDataset(data, "cam\\nmcvo run: done", "cam");
@@ -173,7 +162,7 @@ TEST(HostileNamesCli, RunKeepsANewlineInTheNameOnOneLine) {
 TEST(HostileNamesCli, ADatasetWithAPlainNameRunsInfo) {
   // The control of the cases above: the same dataset with an ordinary name
   // (absolute image paths included) is accepted.
-  ASSERT_FALSE(Base().empty());
+  ASSERT_FALSE(SmallMonoRender().empty());
   const fs::path data = Scratch() / "plain" / "data";
   MakeDataset(data, "front", "front");
   const Result r = RunMcvoWithin(kLimitSeconds, "info --dataset " + Quote(data.string()));
@@ -186,7 +175,7 @@ std::string SynthArgs(const fs::path& rig, const fs::path& out) {
 }
 
 TEST(HostileNamesCli, SynthRefusesACameraNamedToClimbOutOfOut) {
-  ASSERT_FALSE(Base().empty());
+  ASSERT_FALSE(SmallMonoRender().empty());
   const fs::path parent = Scratch() / "synth" / "a" / "b";
   const fs::path rig = parent / "rig.json";
   Write(rig, RigNamed("../../pwned_synth"));
@@ -205,7 +194,7 @@ TEST(HostileNamesCli, SynthRefusesACameraNamedToClimbOutOfOut) {
 TEST(HostileNamesCli, SynthWithAPlainNameWritesOnlyIntoOut) {
   // The control: the same rig and command with an ordinary name render, and
   // everything they write is under --out.
-  ASSERT_FALSE(Base().empty());
+  ASSERT_FALSE(SmallMonoRender().empty());
   const fs::path parent = Scratch() / "synth_plain" / "a" / "b";
   const fs::path rig = parent / "rig.json";
   Write(rig, RigNamed("front"));

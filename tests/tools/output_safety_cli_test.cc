@@ -34,23 +34,12 @@ namespace fs = std::filesystem;
 using mcvo::test::Quote;
 using mcvo::test::Result;
 using mcvo::test::RunMcvoWithin;
+using mcvo::test::SmallMonoRender;
 
 constexpr int kLimitSeconds = 90;
 
 fs::path Root() {
   static const fs::path dir = mcvo::test::ProcessScratch("mcvo_output_safety_test");
-  return dir;
-}
-
-// 12 frames of the one-camera preset: rendered once per build.
-const fs::path& Small() {
-  static const fs::path dir = [] {
-    std::string error;
-    const fs::path seq =
-        mcvo::test::CachedSynth("--preset mono --frames 12 --image-scale 0.25 --samples 1 --seed 3", &error);
-    EXPECT_FALSE(seq.empty()) << error;
-    return seq;
-  }();
   return dir;
 }
 
@@ -103,7 +92,7 @@ void ExpectOneErrorLine(const Result& r, int code, const std::string& part) {
 TEST(OutputSafety, ForceNeverDeletesTheDatasetOrItsParent) {
   const fs::path parent = Root() / "force_parent";
   fs::create_directories(parent);
-  const fs::path seq = CopyOf(Small(), "force_parent/seq");
+  const fs::path seq = CopyOf(SmallMonoRender(), "force_parent/seq");
   const auto before = Contents(parent);
   for (const fs::path& out : {seq, parent, seq / "runs" / "r1"}) {
     const Result r = RunMcvoWithin(
@@ -118,8 +107,8 @@ TEST(OutputSafety, ForceNeverReplacesAFolderMcvoDidNotWrite) {
   fs::create_directories(mine);
   std::ofstream(mine / "notes.txt") << "mine";
   std::ofstream(mine / "run.json") << "{}";
-  const Result r = RunMcvoWithin(kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " +
-                                                    Quote(mine.string()) + " --force");
+  const Result r = RunMcvoWithin(kLimitSeconds, "run --dataset " + Quote(SmallMonoRender().string()) +
+                                                    " --out " + Quote(mine.string()) + " --force");
   ExpectOneErrorLine(r, 3, ".mcvo-output");
   EXPECT_EQ(Names(mine), (std::vector<std::string>{"notes.txt", "run.json"}));
 }
@@ -133,7 +122,7 @@ TEST(OutputSafety, ASecondRunOnTheSameOutRefusesAtOnceNamingTheLock) {
   ASSERT_EQ(::flock(fd, LOCK_EX), 0);
   const auto start = std::chrono::steady_clock::now();
   const Result r = RunMcvoWithin(
-      kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " + Quote(out.string()));
+      kLimitSeconds, "run --dataset " + Quote(SmallMonoRender().string()) + " --out " + Quote(out.string()));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ExpectOneErrorLine(r, 3, ".locked.lock");
   EXPECT_NE(r.output.find("another mcvo"), std::string::npos) << r.output;
@@ -211,7 +200,7 @@ TEST(OutputSafety, AKilledRunsStagingIsRemovedByTheNextRun) {
   EXPECT_EQ(WaitExit(pid), 1000 + SIGKILL);
   ASSERT_TRUE(fs::exists(staging));
   const Result r = RunMcvoWithin(
-      kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " + Quote(out.string()));
+      kLimitSeconds, "run --dataset " + Quote(SmallMonoRender().string()) + " --out " + Quote(out.string()));
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("removed the stale staging folder"), std::string::npos) << r.output;
   EXPECT_EQ(Names(folder), (std::vector<std::string>{"log.txt", "out"}));
@@ -223,7 +212,7 @@ struct OneRunBatch {
   explicit OneRunBatch(const std::string& name) {
     dir = Root() / name;
     fs::create_directories(dir);
-    seq = CopyOf(Small(), name + "/seq");
+    seq = CopyOf(SmallMonoRender(), name + "/seq");
     manifest = dir / "batch.json";
     out = dir / "out";
     std::ofstream(manifest) << R"({"runs": [{"name": "r", "dataset": {"root": "seq"}}]})";
@@ -301,7 +290,7 @@ TEST(OutputSafety, BatchForceNeverDeletesADatasetNamedLikeARun) {
 }
 
 TEST(OutputSafety, EvalTrackAndSynthNeverWriteOverTheirInputs) {
-  const fs::path seq = CopyOf(Small(), "file_outputs_seq");
+  const fs::path seq = CopyOf(SmallMonoRender(), "file_outputs_seq");
   const auto before = Contents(seq);
   const std::string gt = Quote((seq / "groundtruth.tum").string());
   ExpectOneErrorLine(RunMcvoWithin(kLimitSeconds, "eval --gt " + gt + " --est " + gt + " --out " +
@@ -335,14 +324,14 @@ TEST(OutputSafety, EvalTrackAndSynthNeverWriteOverTheirInputs) {
 TEST(OutputSafety, LongOutNamesAndSymbolicLinks) {
   const fs::path out = Root() / std::string(250, 'o');
   const Result r = RunMcvoWithin(
-      kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " + Quote(out.string()));
+      kLimitSeconds, "run --dataset " + Quote(SmallMonoRender().string()) + " --out " + Quote(out.string()));
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(fs::is_regular_file(out / "run.json"));
   const fs::path target = Root() / "link_target";
   fs::create_directories(target);
   fs::create_directory_symlink(target, Root() / "link");
-  ExpectOneErrorLine(RunMcvoWithin(kLimitSeconds, "run --dataset " + Quote(Small().string()) + " --out " +
-                                                      Quote((Root() / "link").string())),
+  ExpectOneErrorLine(RunMcvoWithin(kLimitSeconds, "run --dataset " + Quote(SmallMonoRender().string()) +
+                                                      " --out " + Quote((Root() / "link").string())),
                      3, "symbolic link");
   EXPECT_TRUE(fs::is_symlink(fs::symlink_status(Root() / "link")));
 }

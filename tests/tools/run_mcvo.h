@@ -49,7 +49,8 @@ inline Result RunMcvo(const std::string& args) { return RunShell(Quote(MCVO_BINA
 // is killed and reported as exit code 124 (a hang is a failure, not a stall
 // of the test suite).
 inline Result RunMcvoWithin(int seconds, const std::string& args) {
-  return RunShell("timeout --kill-after=5 " + std::to_string(seconds) + " " + Quote(MCVO_BINARY) + " " + args);
+  return RunShell("timeout --kill-after=5 " + std::to_string(seconds) + " " + Quote(MCVO_BINARY) + " " +
+                  args);
 }
 
 // A scratch folder of this test process, `<TempDir>/<prefix>_<pid>`, emptied
@@ -72,6 +73,21 @@ inline std::filesystem::path ProcessScratch(const std::string& prefix) {
   std::filesystem::create_directories(root);
   folders.paths.push_back(root);
   return root;
+}
+
+// The error lines of a command's output: "mcvo run: error: ..." or "mcvo
+// run: usage error: ..." (not "reprojection error" in an info line).
+inline std::vector<std::string> ErrorLines(const std::string& output) {
+  std::vector<std::string> lines;
+  size_t start = 0;
+  while (start < output.size()) {
+    size_t end = output.find('\n', start);
+    if (end == std::string::npos) end = output.size();
+    const std::string line = output.substr(start, end - start);
+    if (line.rfind("mcvo ", 0) == 0 && line.find(" error: ") != std::string::npos) lines.push_back(line);
+    start = end + 1;
+  }
+  return lines;
 }
 
 }  // namespace mcvo::test
