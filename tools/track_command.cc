@@ -23,6 +23,7 @@
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/frontend/detector.h"
 #include "mcvo/frontend/multi_camera_tracker.h"
+#include "mcvo/frontend/opencv_threads.h"
 #include "mcvo/frontend/track_file.h"
 #include "mcvo/io/json_util.h"
 #include "mcvo/pipeline/frame_source.h"
@@ -208,6 +209,7 @@ int RunTrack(int argc, const char* const* argv) {
   // and layout checked here), before any image is decoded. It is `mcvo
   // run`'s: the frontend on a producer thread ahead of this one, which
   // writes the track file.
+  const ScopedSerialOpenCv serial_opencv;  // mcvo's threads only (frontend/opencv_threads.h)
   FrameSource source(index, options.frontend, /*tracks=*/{}, worker_threads);
   const MultiCameraTracker& tracker = *source.tracker();
   const int descriptor_size = tracker.DescriptorSize();

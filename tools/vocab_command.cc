@@ -27,6 +27,7 @@
 #include "dataset_args.h"
 #include "mcvo/dataset/dataset.h"
 #include "mcvo/frontend/detector.h"
+#include "mcvo/frontend/opencv_threads.h"
 #include "mcvo/loop/vocabulary.h"
 #include "mcvo/util/args.h"
 #include "mcvo/util/error.h"
@@ -146,6 +147,7 @@ void ExtractDataset(const DatasetIndex& index, const TrainArgs& args, std::vecto
 }
 
 int RunTrain(int argc, const char* const* argv) {
+  const ScopedSerialOpenCv serial_opencv;  // mcvo's threads only (frontend/opencv_threads.h)
   TrainArgs a;
   ArgParser args("mcvo vocab train",
                  "Trains a bag-of-words vocabulary (hierarchical k-means) on the descriptors of a dataset's "

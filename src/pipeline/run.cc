@@ -16,6 +16,7 @@
 #include "mcvo/dataset/image_container.h"
 #include "mcvo/eval/evaluate.h"
 #include "mcvo/frontend/cross_camera.h"
+#include "mcvo/frontend/opencv_threads.h"
 #include "mcvo/io/rig_io.h"
 #include "mcvo/loop/vocabulary.h"
 #include "mcvo/pipeline/frame_source.h"
@@ -303,6 +304,7 @@ std::string RunPosingWarning(int frames, int posed, const std::vector<std::strin
 // (run_outputs.h) written into a staging folder that is renamed onto the
 // output folder when complete.
 RunSummary RunPipeline(const RunRequest& request) {
+  const ScopedSerialOpenCv serial_opencv;  // mcvo's threads only (frontend/opencv_threads.h)
   const PipelineOptions& options = request.options;
   options.Check();
   DatasetOptions dataset_options = request.dataset;
