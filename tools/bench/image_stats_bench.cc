@@ -41,7 +41,8 @@
 //            from the image centre over the half diagonal) relative to the
 //            centre bin (scene content is in it as much as the lens).
 //  exposure  grey-level percentiles (1, 5, 50, 95, 99), the fractions of
-//            pixels at 0 and at 255, the mean, the mean per-frame std.
+//            pixels at 0 and at 255, the mean, the mean per-frame std, the
+//            histogram (256 pixel counts).
 //  texture   cv::cornerMinEigenVal (grey levels 0..255 as float, block 3,
 //            Sobel 3) median and 90th percentile; the fractions of pixels
 //            whose gradient (Sobel / 8, grey levels per px) exceeds 4 and
@@ -545,6 +546,7 @@ nlohmann::ordered_json ExposureJson(const CameraStats& s) {
   j["fraction_255"] = hist[255] / total;
   j["mean"] = mean / total;
   j["frame_std"] = s.frame_std_sum / s.frames;
+  j["histogram"] = hist;
   return j;
 }
 
