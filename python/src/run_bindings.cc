@@ -171,6 +171,9 @@ struct SynthArgs {
   double rate = 10.0;
   int samples = synth::RenderOptions().samples_per_axis;
   double noise = 0.0;
+  std::string sensor_noise;
+  double lens_blur = 0.0;
+  std::string tone;
   bool exposure_changes = false;
   bool vignetting = false;
   int motion_blur = 0;
@@ -195,6 +198,9 @@ synth::SynthOptions MakeSynthOptions(const SynthArgs& a) {
   options.frame_rate_hz = a.rate;
   options.render.samples_per_axis = a.samples;
   options.render.effects.noise_sigma = a.noise;
+  if (!a.sensor_noise.empty()) synth::ParseSensorNoise(a.sensor_noise, &options.render.effects);
+  options.render.effects.lens_blur_sigma_px = a.lens_blur;
+  if (!a.tone.empty()) synth::ParseTone(a.tone, &options.render.effects);
   options.render.effects.exposure_changes = a.exposure_changes;
   options.render.effects.vignetting = a.vignetting;
   options.render.effects.motion_blur_samples = a.motion_blur;
@@ -274,9 +280,11 @@ void BindSynth(py::module_& m) {
       [](const py::object& out, const std::string& preset, const py::object& rig, const std::string& scene,
          int frames, double laps, int seed, double image_scale, double rate, int samples, double noise,
          bool exposure_changes, bool vignetting, int motion_blur, double exposure_time, double stand,
-         const std::string& stop, int threads, bool force, const py::object& progress) {
-        SynthArgs a{preset, rig, scene, frames, laps, seed, image_scale, rate, samples, noise, exposure_changes,
-                    vignetting, motion_blur, exposure_time, stand, stop, threads, force};
+         const std::string& stop, int threads, bool force, const py::object& progress,
+         const std::string& sensor_noise, double lens_blur, const std::string& tone) {
+        SynthArgs a{preset, rig, scene, frames, laps, seed, image_scale, rate, samples, noise, sensor_noise,
+                    lens_blur, tone, exposure_changes, vignetting, motion_blur, exposure_time, stand, stop,
+                    threads, force};
         return SynthPy(a, out, progress);
       },
       py::arg("out"), py::arg("preset") = "", py::arg("rig") = py::none(), py::arg("scene") = "",
@@ -285,6 +293,7 @@ void BindSynth(py::module_& m) {
       py::arg("exposure_changes") = false, py::arg("vignetting") = false, py::arg("motion_blur") = 0,
       py::arg("exposure_time") = synth::RenderEffects().exposure_time_s, py::arg("stand") = 0.0,
       py::arg("stop") = "", py::arg("threads") = 0, py::arg("force") = false, py::arg("progress") = py::none(),
+      py::arg("sensor_noise") = "", py::arg("lens_blur") = 0.0, py::arg("tone") = "",
       "Renders a synthetic sequence with exact ground truth into `out`, as `mcvo synth` (same arguments, "
       "same files): a preset (kitti360, kitti360-3cam, stereo, mono, multicam6, irregular5) or a rig.json "
       "with a scene. progress(event) gets {'stage', 'done', 'total', 'elapsed_s'} as frames complete. "

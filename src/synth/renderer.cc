@@ -380,15 +380,23 @@ cv::Mat RenderImageAtPoses(const Scene& scene, const Rig& rig, int camera_index,
     });
   }
 
+  LensBlur(effects.lens_blur_sigma_px, width, height, options.threads, &sum);
+  const bool tone = effects.HasToneCurve();
+  const bool sensor_noise = effects.HasSensorNoise();
   ForEachRow(height, options.threads, [&](int y) {
     uint8_t* out = image.ptr<uint8_t>(y);
     for (int x = 0; x < width; ++x) {
       const size_t p = static_cast<size_t>(y) * width + x;
       double value = scale * sum[p];
       if (effects.vignetting) value *= VignettingFalloff(rays->axis_angle_rad[p]);
+      if (tone) value = ToneCurve(effects, value);
       if (effects.noise_sigma > 0.0) {
         value += effects.noise_sigma * std::sqrt(1.0 + std::max(0.0, value) / 255.0) *
                  PixelGaussian(options.seed, frame, camera_index, p);
+      }
+      if (sensor_noise) {
+        const double variance = effects.sensor_noise_a * std::max(0.0, value) + effects.sensor_noise_b;
+        value += std::sqrt(variance) * PixelGaussian(options.seed, frame, camera_index, p);
       }
       out[x] = static_cast<uint8_t>(std::clamp(std::floor(value + 0.5), 0.0, 255.0));
     }

@@ -197,6 +197,10 @@ std::string MetaJson(const SynthOptions& options, const std::string& scene_name,
                                                   : rig.cameras[e.blackout_camera].name},
       {"blackout_first_frame", e.blackout_first_frame},
       {"blackout_num_frames", e.blackout_num_frames}};
+  // The realism effects only when set, so that meta.json stays as it was without them.
+  if (e.HasSensorNoise()) j["effects"]["sensor_noise"] = {{"a", e.sensor_noise_a}, {"b", e.sensor_noise_b}};
+  if (e.lens_blur_sigma_px > 0.0) j["effects"]["lens_blur_sigma_px"] = e.lens_blur_sigma_px;
+  if (e.HasToneCurve()) j["effects"]["tone"] = {{"gain", e.tone_gain}, {"gamma", e.tone_gamma}};
   if (!options.stops.Empty()) {
     nlohmann::ordered_json stops = nlohmann::ordered_json::array();
     for (const Stop& stop : options.stops.stops)

@@ -131,6 +131,32 @@ TEST(Synthesize, SameArgumentsGiveByteIdenticalFilesAtAnyThreadCount) {
   EXPECT_NE(ReadFileToString(other / "images/image_00/000001.png"), a.at("images/image_00/000001.png"));
 }
 
+// meta.json names the realism effects (sensor noise, lens blur, tone curve)
+// when they are set, and only then: without them it is as before they existed.
+TEST(Synthesize, MetaRecordsTheRealismEffectsOnlyWhenSet) {
+  const fs::path plain = TempDir("meta_plain");
+  SynthOptions options = SmallKitti360(2);
+  options.frames = 1;
+  Synthesize(options, plain);
+  const std::string meta = ReadFileToString(plain / "meta.json");
+  for (const char* key : {"sensor_noise", "lens_blur_sigma_px", "tone"})
+    EXPECT_EQ(meta.find(std::string("\"") + key + "\""), std::string::npos) << key;
+  const fs::path real = TempDir("meta_real");
+  options.render.effects.noise_sigma = 0.0;
+  options.render.effects.sensor_noise_a = 0.033;
+  options.render.effects.lens_blur_sigma_px = 0.9;
+  options.render.effects.tone_gain = 1.5;
+  options.render.effects.tone_gamma = 1.4;
+  Synthesize(options, real);
+  const std::string with = ReadFileToString(real / "meta.json");
+  EXPECT_NE(with.find("\"sensor_noise\": {\n      \"a\": 0.033,\n      \"b\": 0.0"), std::string::npos)
+      << with;
+  EXPECT_NE(with.find("\"lens_blur_sigma_px\": 0.9"), std::string::npos) << with;
+  EXPECT_NE(with.find("\"gamma\": 1.4"), std::string::npos) << with;
+  EXPECT_NE(ReadFileToString(real / "images/image_00/000000.png"),
+            ReadFileToString(plain / "images/image_00/000000.png"));
+}
+
 TEST(Synthesize, RefusesANonEmptyOutputFolderUnlessForced) {
   const fs::path out = TempDir("nonempty");
   fs::create_directories(out);

@@ -65,6 +65,23 @@ TEST(SynthCli, MisuseGivesExitCode2) {
   EXPECT_EQ(RunMcvo("synth --preset stereo --out " + out.string() + " --samples 0").exit_code, 2);
   EXPECT_EQ(RunMcvo("synth --preset stereo --out " + out.string() + " --blackout x").exit_code, 2);
   EXPECT_EQ(RunMcvo("synth --preset stereo --out " + out.string() + " --scene moon").exit_code, 3);
+  // The realism flags: malformed, out of range, or sensor noise with --noise.
+  for (const char* flags : {"--sensor-noise 0.03", "--sensor-noise a:b", "--sensor-noise -1:0", "--tone 1.5",
+                            "--tone 0:1", "--lens-blur -1", "--sensor-noise 0.03:0 --noise 2"}) {
+    const Result r = RunMcvo("synth --preset stereo --out " + out.string() + " " + flags);
+    EXPECT_EQ(r.exit_code, 2) << flags << ": " << r.output;
+  }
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(SynthCli, RealismFlagsRender) {
+  const fs::path out = TempDir("realism");
+  const Result r = RunMcvo(
+      "synth --preset stereo --frames 1 --image-scale 0.1 --samples 1 --sensor-noise 0.033:0 "
+      "--lens-blur 0.8 --tone 1.5:1.5 --out " +
+      out.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(mcvo::ReadFileToString(out / "meta.json").find("\"tone\""), std::string::npos);
 }
 
 }  // namespace

@@ -38,8 +38,15 @@
 //     A ray that hits nothing sees ShadeSky(direction).
 //  4. The samples of all instants are averaged (a box filter over the pixel
 //     and the exposure), in double, linear radiance in [0, 1].
-//  5. value = 255 * radiance * gain(c, t) * vignetting(pixel) + noise,
-//     rounded half up and clamped to [0, 255] (see RenderEffects).
+//  5. Optional lens blur (RenderEffects::lens_blur_sigma_px): the averaged
+//     radiance image convolved with a Gaussian PSF (LensBlur), so the
+//     optics blur on top of the pixel's own box filter.
+//  6. value = 255 * radiance * gain(c, t) * vignetting(pixel), through the
+//     optional tone curve (ToneCurve), plus noise (the constant-sigma model
+//     or the signal-dependent sensor model), rounded half up and clamped to
+//     [0, 255] (see RenderEffects). With every effect off, steps 5 and 6
+//     are the exact arithmetic of the renderer before they existed: the
+//     default output is byte-identical.
 //
 // Determinism: every random draw (noise, exposure phases) comes from a
 // counter-based hash of (seed, frame, camera, pixel), never from shared
@@ -57,6 +64,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <initializer_list>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -78,6 +86,24 @@ struct RenderEffects {
   // Radial falloff with the angle of the pixel's bearing from the optical axis
   // (VignettingFalloff): cos^4, never below 0.3.
   bool vignetting = false;
+  // Signal-dependent sensor noise (Poisson-Gaussian, in grey levels): the
+  // variance at grey value v (after the tone curve) is
+  // sensor_noise_a * v + sensor_noise_b. Off when both are 0; not together
+  // with noise_sigma. Measured on KITTI odometry (tools/bench/image_stats_bench.cc,
+  // results/render_realism.md): a = 0.033, b = 0.
+  double sensor_noise_a = 0.0;
+  double sensor_noise_b = 0.0;
+  // Optical blur: a Gaussian PSF of this sigma in pixels applied to the
+  // radiance image (0: off). KITTI's edges measure 0.9 px of blur beyond
+  // the pixel and the renderer's own 0.48 px: 0.8 matches KITTI (0.6 with
+  // motion blur of 3 instants).
+  double lens_blur_sigma_px = 0.0;
+  // Tone curve: value = 255 * min(1, tone_gain * v / 255)^tone_gamma of the
+  // linear grey value v, which clips what tone_gain pushes past white (a
+  // sky exposed for the road) and stretches the contrast (tone_gamma > 1).
+  // Identity (and not applied) at 1 and 1.
+  double tone_gain = 1.0;
+  double tone_gamma = 1.0;
   int motion_blur_samples = 0;    // > 1: average over this many instants within the exposure
   double exposure_time_s = 0.01;  // shutter time used by motion blur
   // Cameras that go black: camera `blackout_camera` (kBlackoutAllCameras:
@@ -90,9 +116,11 @@ struct RenderEffects {
 
   bool IsBlackout(int camera_index, int frame) const {
     return (camera_index == blackout_camera || blackout_camera == kBlackoutAllCameras) &&
-           frame >= blackout_first_frame &&
-           frame - blackout_first_frame < blackout_num_frames;
+           frame >= blackout_first_frame && frame - blackout_first_frame < blackout_num_frames;
   }
+
+  bool HasSensorNoise() const { return sensor_noise_a > 0.0 || sensor_noise_b > 0.0; }
+  bool HasToneCurve() const { return tone_gain != 1.0 || tone_gamma != 1.0; }
 
   // Throws UsageError naming the bad field ("noise_sigma: must be >= 0, got -1").
   void Check() const;
@@ -153,6 +181,21 @@ double ExposureGain(const RenderEffects& effects, uint64_t seed, int camera_inde
 // fisheyes (whose lenses compensate much of it, and which see beyond 90
 // degrees where cos^4 would vanish or come back) keep a usable signal at the rim.
 double VignettingFalloff(double angle_rad);
+
+// "A:B" of `mcvo synth --sensor-noise` into sensor_noise_a and _b, "GAIN:GAMMA"
+// of --tone into tone_gain and tone_gamma; UsageError naming the flag when the
+// text is not two numbers (the ranges are RenderEffects::Check's).
+void ParseSensorNoise(const std::string& text, RenderEffects* effects);
+void ParseTone(const std::string& text, RenderEffects* effects);
+
+// The tone curve of RenderEffects at grey value v (linear, 0..255 and beyond).
+double ToneCurve(const RenderEffects& effects, double value);
+
+// Convolves a width x height image (row-major) with a normalised Gaussian of
+// sigma_px (separable, truncated at 3 sigma, borders mirrored without
+// repeating the edge pixel), rows in parallel on `threads` threads with the
+// same result for any count. sigma_px <= 0 leaves the image as it is.
+void LensBlur(double sigma_px, int width, int height, int threads, std::vector<double>* image);
 
 // Frees the per-camera bearing cache.
 void ClearRenderCache();
