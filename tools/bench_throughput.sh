@@ -59,6 +59,7 @@ cd "$(dirname "$0")/.."
 COMMAND_LINE="tools/bench_throughput.sh${*:+ $*}"
 [[ ${ONLY_PEERS:-} == 1 ]] && COMMAND_LINE="ONLY_PEERS=1 $COMMAND_LINE"
 [[ -n ${THREADS:-} && $THREADS != 2 ]] && COMMAND_LINE="THREADS=$THREADS $COMMAND_LINE"
+[[ -n ${COLOURISE:-} ]] && COMMAND_LINE="COLOURISE=$COLOURISE $COMMAND_LINE"
 FRAMES=${1:-60}
 MCVO=${2:-build/mcvo}
 SCRATCH=${3:-${TMPDIR:-/tmp}/mcvo_bench_throughput}
