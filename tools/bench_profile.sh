@@ -225,6 +225,7 @@ import collections, csv, datetime, filecmp, json, os, re, subprocess, sys
 # whatever is inside it. Listed in the tables' order; on one frame the first match wins.
 M = r"^(?:[\w:]+ )?mcvo::"  # a function of mcvo (an optional return type before it: templates)
 E = r"(?= \[[^\]]*\]$)"  # the end of the symbol
+NS = r"(?:[\w:]|\(anonymous namespace\))*"  # a namespace path, anonymous ones included
 CLAIMS = ("claims", None)  # the rule's stage takes the whole sample when the frame is anywhere on the stack
 STAGE_RULES = [
     ("start-up", [
@@ -257,8 +258,8 @@ STAGE_RULES = [
     ("anchor check", [(M + r"(CameraTracker::Impl::RefineByAnchor|AlignPatch|MakePatchAnchor|PatchAligner)", None)]),
     ("detection", [
         (M + r"CameraTracker::Impl::(Detect|AddNewFeatures)", None),
-        (M + r"\S*Detector\w*::", None),
-        (M + r"(SelectFeatures|DecodeCellLogits|\S*KeypointNet)", None),
+        (M + NS + r"Detector\w*::", None),
+        (M + r"(SelectFeatures|DecodeCellLogits|" + NS + r"KeypointNet)", None),
     ]),
     ("cross-camera matching", [(M + r"CrossCameraMatcher::", None)]),
     ("frontend other", [(M + r"(CameraTracker::|MultiCameraTracker::|FrameSource::)", None)]),
@@ -300,14 +301,14 @@ STAGE_RULES = [
         (M + r"\(anonymous namespace\)::GlobalProblem", None),
     ]),
     ("COLMAP export", [
-        (M + r"(\S*Colmap\w*|colmap_internal::|pipeline_internal::SampleKeyframeColors)", None),
+        (M + r"(" + NS + r"Colmap\w*|colmap_internal::|pipeline_internal::SampleKeyframeColors)", None),
     ]),
     ("outputs: eval, report, files", [
         (M + r"(pipeline_internal::WriteRunOutputs|WriteReports|RenderReport\w*|report_internal::|EvaluateTrajectory|WriteEvalOutputs|EvalResultTo\w*|ComputeLocalScale|eval_internal::)", None),
         (M + r"(WriteTrajectory|WriteFileAtomic|AtomicFileWriter::|OutputFolder::|WriteFrameTable|WritePipelineOptions|WriteRig|pipeline_internal::\w*Csv)", None),
     ]),
     ("hashing, input checks", [
-        (M + r"(Sha256|ExecutableSha256|\S*Hash(RunInputs|DatasetContent)|\S*(StampRunFiles|CheckRunFilesUnchanged))", None),
+        (M + r"(Sha256|ExecutableSha256|" + NS + r"Hash(RunInputs|DatasetContent)|" + NS + r"(StampRunFiles|CheckRunFilesUnchanged))", None),
         (r"^SHA256_", None),
     ]),
 ]
@@ -827,7 +828,7 @@ print("## Stage rules\n")
 print("A frame is perf's demangled symbol and its file, `SYMBOL [FILE]`; `mcvo::` may follow a return type. "
       "Innermost matching frame wins; on one frame the first row. 'parent': the frame directly above "
       "(its caller) must match too; 'within': some frame above; 'claims all inside it': the frame anywhere on "
-      "the stack takes the sample.\n")
+      "the stack takes the sample; `(ns::)*`: any namespaces, anonymous ones included.\n")
 print(f"Placed by time, for samples no rule places: (1) a sample of a library's pool thread (no mcvo frame, a "
       f"frame of libtbb: OpenCV's parallel_for_ workers; of libceres: Ceres' pool) takes the stage of the "
       f"nearest sample, within {1000 * POOL_WINDOW_S:.0f} ms, of a thread inside that library's dispatcher "
@@ -844,7 +845,7 @@ for stage, rules in STAGE_RULES:
     for rx, cond in rules:
         c = ("-" if cond is None else "claims all inside it" if cond == CLAIMS
              else f"{cond[0]} `{cond[1].replace(M, 'mcvo::').replace(E, '$')}`")
-        print(f"| {stage} | `{rx.replace(M, 'mcvo::').replace(E, '$').replace('|', '&#124;')}` | {c.replace('|', '&#124;')} |")
+        print(f"| {stage} | `{rx.replace(M, 'mcvo::').replace(E, '$').replace(NS, '(ns::)*').replace('|', '&#124;')}` | {c.replace('|', '&#124;')} |")
 print()
 print(f"CSV: `{out_csv}` (one row per input, thread count and stage; the numbers above to 6 significant digits).")
 PY
