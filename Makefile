@@ -20,6 +20,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # becomes the system BLAS (Debian's alternatives) that CHOLMOD factorises
 # the global BA with: about 4x faster than ATLAS, one thread (mcvo/util/blas.h).
 # slurm-wlm and munge: the cluster test starts a one-node Slurm (tests/cluster/).
+# linux-perf: perf, for the CPU profile of tools/bench_profile.sh (results/profile.md).
 # librosbag-storage-dev and the ROS message headers read ROS1 bags (--format
 # rosbag); no ROS installation is needed.
 # pybind11-dev and python3-dev build the Python module (docs/python.md);
@@ -29,7 +30,7 @@ DEB_PACKAGES := build-essential cmake pkg-config git ca-certificates \
   libopencv-dev libopencv-contrib-dev libdeflate-dev nlohmann-json3-dev libyaml-cpp-dev \
   librosbag-storage-dev libsensor-msgs-dev libgeometry-msgs-dev libnav-msgs-dev \
   libgtest-dev libgmock-dev libopengv-dev colmap chromium \
-  clang-format clang-tidy clang libclang-rt-14-dev slurm-wlm munge \
+  clang-format clang-tidy clang libclang-rt-14-dev slurm-wlm munge linux-perf \
   pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
 
 SOURCES := $(shell find src include tools tests -name '*.cc' -o -name '*.h' 2>/dev/null)
