@@ -16,6 +16,7 @@ void BackendOptions::Check() const {
   CheckAtLeast("/backend/keyframe_parallax_px", keyframe_parallax_px, 0.0);
   CheckAtLeast("/backend/keyframe_min_tracked", keyframe_min_tracked, 0);
   CheckPositive("/backend/outlier_threshold_px", outlier_threshold_px);
+  CheckInRange("/backend/cross_camera_min_angle_deg", cross_camera_min_angle_deg, 0.0, 90.0);
   CheckPositive("/backend/pnp_threshold_px", pnp_threshold_px);
   CheckAtLeast("/backend/min_pnp_inliers", min_pnp_inliers, 6);
   CheckAtLeast("/backend/scale_correction_period", scale_correction_period, 0);

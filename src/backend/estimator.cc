@@ -15,6 +15,7 @@
 
 #include <Eigen/Geometry>
 
+#include "cross_camera_filter.h"
 #include "landmark_window.h"
 #include "mcvo/backend/rig_pnp.h"
 #include "mcvo/util/error.h"
@@ -182,6 +183,7 @@ struct Estimator::Impl {
       frame->segment = segment;
       frame->keyframe = true;
       frame->obs = *it;
+      backend_internal::DropFarCrossCameraObservations(rig, options.cross_camera_min_angle_deg, &frame->obs);
       frame->SetWorldFromRig(world_from_init * init.world_from_rig[k]);
       window.PushBack(frame);
     }
@@ -374,6 +376,7 @@ struct Estimator::Impl {
     frame->t_ns = input.t_ns;
     frame->segment = segment;
     frame->obs = input;
+    backend_internal::DropFarCrossCameraObservations(rig, options.cross_camera_min_angle_deg, &frame->obs);
     for (auto& features : frame->obs.cameras) {
       for (FeatureObservation& f : features) f.bearing.normalize();
     }

@@ -171,6 +171,7 @@ void Visit(V& v, BackendOptions* o) {
   v.Field("keyframe_parallax_px", &o->keyframe_parallax_px);
   v.Field("keyframe_min_tracked", &o->keyframe_min_tracked);
   v.Field("outlier_threshold_px", &o->outlier_threshold_px);
+  v.Field("cross_camera_min_angle_deg", &o->cross_camera_min_angle_deg);
   v.Field("pnp_threshold_px", &o->pnp_threshold_px);
   v.Field("min_pnp_inliers", &o->min_pnp_inliers);
   v.Field("scale_correction_period", &o->scale_correction_period);

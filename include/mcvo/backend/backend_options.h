@@ -31,6 +31,22 @@ struct BackendOptions {
   int keyframe_min_tracked = 20;       // fewer tracked landmarks in a camera, or fewer triangulated
                                        // ones per tracking camera over the rig: keyframe
   double outlier_threshold_px = 3.0;   // observations above this after BA are removed
+  // A cross-camera match whose two rays meet at less than this angle (a far
+  // point: on a rectified pair of baseline b, farther than b / tan(angle),
+  // 57 b at 1 deg) is not an observation of the window BA, nor of the map
+  // the global BA refines; the feature stays a landmark of its own camera,
+  // triangulated over time (ORB-SLAM2's close / far split, there at 40 b).
+  // The initializer still sees every match (its own angles, 0.5 deg).
+  // Why (results/stereo_far_points.md): on real KITTI stereo the baseline
+  // sets the scale (rig.json's baseline x 0.99 / 1.01 moves it -1.07 % /
+  // +1.03 %), and the far matches made it too long (0.78 % on
+  // kitti06_stereo, 9.1 % on kitti01_stereo, 0.64 % / 6.1 % at 1 deg),
+  // while their disparities agree with an independent search to 0.03 px:
+  // what a far point cannot afford is an offset of the images themselves, a
+  // fraction of a pixel against a 5 px disparity. The initializer's angles
+  // raised with it (1.43 deg) left a stereo pair in open country unable to
+  // start (roof_open_s64_blackout: 0 of 300 frames posed). 0: every match.
+  double cross_camera_min_angle_deg = 1.0;
   double pnp_threshold_px = 2.0;       // rig absolute pose inlier threshold, at virtual_focal_px
   int min_pnp_inliers = 8;  // fewer over all cameras: tracking is lost (a 6-DoF pose, RANSAC inliers)
   int scale_correction_period = 50;            // solves between scale corrections; 0: never
