@@ -24,7 +24,7 @@
 #    initializer.min_cross_camera_angle_deg,
 #    initializer.overlap_start.min_angle_deg) set to A, for A in ANGLES
 #    (0 = the window BA keeps every match; the initializer's two at
-#    max(A, 0.5), their value before 0.3.0). Scored as tools/bench_real.sh
+#    max(A, 0.5), their value in 0.2.0). Scored as tools/bench_real.sh
 #    scores: SE3 and Sim3 ATE % of the path, scale error %, or for a still
 #    sample the ATE in mm and the estimate's path length.
 # --threads 1 throughout (outputs are the same at any thread count).
@@ -108,7 +108,14 @@ PY
       args=(--config "$config")
     fi
     out=$SCRATCH/run_angle_${angle}_$sample
-    "$MCVO" run --dataset "$dir" "${args[@]}" --threads 1 --force --out "$out" > "$out.log" 2>&1
+    # exit 5: the run finished but posed no frame (its run.json says so)
+    "$MCVO" run --dataset "$dir" "${args[@]}" --threads 1 --force --out "$out" > "$out.log" 2>&1 || [[ $? == 5 ]]
+    posed=$($PY -c "import json,sys; print(json.load(open(sys.argv[1]))['result']['posed_frames'])" "$out/run.json")
+    if [[ $posed == 0 ]]; then  # nothing to score: the row says so
+      printf '%s\t%s\t%s\t%s\t%s\n' "$sample" "$angle" none "$out" - >> "$SCRATCH/angles.tsv"
+      echo "$sample angle $angle: no frame posed" >&2
+      continue
+    fi
     evaluate "$gt" "$out/trajectory.tum" "angle_${angle}_$sample"
     scale=$($PY -c "import json,sys; print(json.load(open(sys.argv[1]))['result'].get('scale','metric'))" "$out/run.json")
     printf '%s\t%s\t%s\t%s\t%s\n' "$sample" "$angle" "$scale" "$out" "$SCRATCH/eval_angle_${angle}_$sample" >> "$SCRATCH/angles.tsv"
@@ -150,6 +157,10 @@ print("| sample | A (deg) | SE3 ATE % | Sim3 ATE % | scale error % |")
 print("|---|---|---|---|---|")
 out_rows = []
 for sample, angle, scale, run, ev in (l.rstrip("\n").split("\t") for l in open(f"{scratch}/angles.tsv")):
+    if ev == "-":
+        print(f"| {sample} | {angle} | no frame posed | - | - |")
+        out_rows.append({"sample": sample, "angle": angle, "scale": "none posed"})
+        continue
     se3 = json.load(open(f"{ev}_se3/eval.json"))
     sim3 = json.load(open(f"{ev}_sim3/eval.json"))
     path = se3["rpe"]["gt_path_length_m"]
