@@ -297,6 +297,20 @@ std::string RunPosingWarning(int frames, int posed, const std::vector<std::strin
   return head + MostFrequentPosingFailure(unposed_reasons);
 }
 
+namespace {
+
+// Every camera that /initializer/required_cameras names is in the rig.
+void CheckRequiredCameras(const RunRequest& request, const DatasetIndex& index) {
+  for (const std::string& name : request.options.initializer.required_cameras) {
+    if (index.rig.FindCamera(name) < 0) {
+      MCVO_THROW_INPUT(request.config_source, ": /initializer/required_cameras: camera \"", name,
+                       "\" is not in the rig of ", index.root.string());
+    }
+  }
+}
+
+}  // namespace
+
 // `mcvo run` as a sequence of stages: open the dataset and check the
 // request; the frame source (frame_source.h) feeding the odometry stage
 // (odometry_stage.h); relocalisation after tracking losses
@@ -314,12 +328,7 @@ RunSummary RunPipeline(const RunRequest& request) {
   const bool monocular = index.rig.NumCameras() == 1;
   const Rig& rig = index.rig;
   const int threads = ResolveThreads(options.runtime.threads);
-  for (const std::string& name : options.initializer.required_cameras) {
-    if (rig.FindCamera(name) < 0) {
-      MCVO_THROW_INPUT(request.config_source, ": /initializer/required_cameras: camera \"", name,
-                       "\" is not in the rig of ", index.root.string());
-    }
-  }
+  CheckRequiredCameras(request, index);
   const std::filesystem::path vocabulary_path = RunVocabularyPath(options);
   // The output folder (util/output_folder.h): checked against the inputs,
   // locked, written in a staging folder that moves into place when complete.
