@@ -15,6 +15,7 @@
 #include "mcvo/synth/renderer.h"
 #include "mcvo/util/error.h"
 #include "synth/marker_scene.h"
+#include "synth/street_scene.h"
 
 namespace mcvo::synth {
 namespace {
@@ -40,25 +41,13 @@ Rig PinholeRig(int width = 320, int height = 240, double f = 250.0) {
   return rig;
 }
 
-Quad MakeQuad(Eigen::Vector3d origin, Eigen::Vector3d axis_u, Eigen::Vector3d axis_v, Material material,
-              uint32_t seed) {
-  Quad quad;
-  quad.origin = origin;
-  quad.axis_u = axis_u;
-  quad.axis_v = axis_v;
-  quad.material = material;
-  quad.texture_seed = seed;
-  return quad;
-}
+using test::MakeQuad;
 
 // A street along +x: asphalt, two facades 8 m to the sides, a poster at the
 // end, and a panel moving across the street.
 Scene StreetScene() {
   Scene scene;
-  scene.AddQuad(MakeQuad({-50, -50, 0}, {200, 0, 0}, {0, 100, 0}, Material::kAsphalt, 1));
-  scene.AddQuad(MakeQuad({-50, 8, 0}, {200, 0, 0}, {0, 0, 20}, Material::kFacadeBrick, 2));
-  scene.AddQuad(MakeQuad({150, -8, 0}, {-200, 0, 0}, {0, 0, 20}, Material::kFacadePlaster, 3));
-  scene.AddQuad(MakeQuad({40, 6, 0}, {0, -12, 0}, {0, 0, 8}, Material::kPoster, 4));
+  test::AddStreetQuads(&scene);
   MovingObject panel;
   panel.quads_in_object.push_back(MakeQuad({0, -1, 0}, {0, 2, 0}, {0, 0, 1.5}, Material::kMetal, 5));
   panel.start_in_world = Eigen::Vector3d(20, -6, 0);
