@@ -45,31 +45,41 @@ bool Admissible(float x, float y, const cv::Mat& image, const cv::Mat& mask, int
   return mask.at<uint8_t>(row, col) != 0;
 }
 
+// The detections' order: decreasing score, then smaller y, then smaller x,
+// then input order (a total order: std::sort gives what a stable sort
+// would).
+struct DetectionKey {
+  float score, y, x;
+  int index;
+};
+
+bool KeyBefore(const DetectionKey& a, const DetectionKey& b) {
+  if (a.score != b.score) return a.score > b.score;
+  if (a.y != b.y) return a.y < b.y;
+  if (a.x != b.x) return a.x < b.x;
+  return a.index < b.index;
+}
+
+std::vector<DetectionKey> MakeKeys(const std::vector<Eigen::Vector2f>& pixels, const std::vector<float>& scores) {
+  std::vector<DetectionKey> keys(pixels.size());
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    keys[i] = DetectionKey{scores[i], pixels[i].y(), pixels[i].x(), static_cast<int>(i)};
+  }
+  return keys;
+}
+
 // Order of the detections: decreasing score, then smaller y, then smaller x,
 // then input order (a total order: std::sort gives what a stable sort
 // would); the first max_candidates of it.
 std::vector<int> SortedOrder(const std::vector<Eigen::Vector2f>& pixels, const std::vector<float>& scores,
                              int max_candidates) {
-  struct Key {
-    float score, y, x;
-    int index;
-  };
-  std::vector<Key> keys(pixels.size());
-  for (size_t i = 0; i < pixels.size(); ++i) {
-    keys[i] = Key{scores[i], pixels[i].y(), pixels[i].x(), static_cast<int>(i)};
-  }
-  const auto before = [](const Key& a, const Key& b) {
-    if (a.score != b.score) return a.score > b.score;
-    if (a.y != b.y) return a.y < b.y;
-    if (a.x != b.x) return a.x < b.x;
-    return a.index < b.index;
-  };
+  std::vector<DetectionKey> keys = MakeKeys(pixels, scores);
   const size_t keep = std::min(keys.size(), static_cast<size_t>(std::max(max_candidates, 0)));
   if (keep < keys.size()) {
-    std::partial_sort(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(keep), keys.end(), before);
+    std::partial_sort(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(keep), keys.end(), KeyBefore);
     keys.resize(keep);
   } else {
-    std::sort(keys.begin(), keys.end(), before);
+    std::sort(keys.begin(), keys.end(), KeyBefore);
   }
   std::vector<int> order(keys.size());
   for (size_t k = 0; k < keys.size(); ++k) order[k] = keys[k].index;
@@ -139,14 +149,52 @@ std::vector<int> CapWithSpreadExtras(const std::vector<Eigen::Vector2f>& pixels,
                                      int max_candidates, int width, int height) {
   MCVO_CHECK(pixels.size() == scores.size());
   if (max_candidates <= 0) return {};
-  std::vector<int> order = SortedOrder(pixels, scores, static_cast<int>(pixels.size()));
-  if (static_cast<int>(order.size()) <= max_candidates) return order;
-  // The rest, spread (SpatiallyBalancedOrder over the detections not in the
-  // top: they are already in its order). Every extra comes after the top
-  // in the order, so top + extras is in score order.
-  const std::vector<int> rest(order.begin() + max_candidates, order.end());
-  order.resize(static_cast<size_t>(max_candidates));
-  for (int k : BalancedPick(rest, pixels, max_candidates, width, height)) order.push_back(k);
+  const size_t cap = static_cast<size_t>(max_candidates);
+  if (pixels.size() <= cap) return SortedOrder(pixels, scores, static_cast<int>(pixels.size()));
+  // What sorting every detection and BalancedPick over the ones after the
+  // top would give, without sorting them all (a frame has thousands of
+  // detections and keeps a few hundred): the top by nth_element, and of
+  // the rest only each cell's best few, as deep as the per-cell ranks the
+  // pick can reach.
+  std::vector<DetectionKey> keys = MakeKeys(pixels, scores);
+  std::nth_element(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(cap), keys.end(), KeyBefore);
+  std::sort(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(cap), KeyBefore);
+  std::vector<int> order(cap);
+  for (size_t k = 0; k < cap; ++k) order[k] = keys[k].index;
+  const size_t rest = keys.size() - cap;
+  if (rest <= cap) {
+    std::sort(keys.begin() + static_cast<std::ptrdiff_t>(cap), keys.end(), KeyBefore);
+    for (size_t k = cap; k < keys.size(); ++k) order.push_back(keys[k].index);
+    return order;
+  }
+  // The rest by cell.
+  const CandidateGrid grid(width, height);
+  std::vector<std::vector<DetectionKey>> cells(static_cast<size_t>(grid.NumCells()));
+  for (size_t k = cap; k < keys.size(); ++k) {
+    const Eigen::Vector2f& p = pixels[static_cast<size_t>(keys[k].index)];
+    cells[static_cast<size_t>(grid.Cell(grid.Col(p.x()), grid.Row(p.y())))].push_back(keys[k]);
+  }
+  // BalancedPick keeps the cap first by (rank in cell, order): every rank
+  // under `depth` - 1, where depth is the least with sum min(count, depth)
+  // >= cap, and of rank depth - 1 the best by order.
+  size_t depth = 0, below = 0;  // below: sum of min(count, depth)
+  while (below < cap) {
+    ++depth;
+    below = 0;
+    for (const auto& cell : cells) below += std::min(cell.size(), depth);
+  }
+  std::vector<DetectionKey> picked, last_rank;
+  for (auto& cell : cells) {
+    const size_t keep = std::min(cell.size(), depth);
+    std::partial_sort(cell.begin(), cell.begin() + static_cast<std::ptrdiff_t>(keep), cell.end(), KeyBefore);
+    for (size_t r = 0; r < keep; ++r) (r + 1 < depth ? picked : last_rank).push_back(cell[r]);
+  }
+  const size_t from_last = cap - picked.size();
+  std::partial_sort(last_rank.begin(), last_rank.begin() + static_cast<std::ptrdiff_t>(from_last), last_rank.end(),
+                    KeyBefore);
+  picked.insert(picked.end(), last_rank.begin(), last_rank.begin() + static_cast<std::ptrdiff_t>(from_last));
+  std::sort(picked.begin(), picked.end(), KeyBefore);
+  for (const DetectionKey& key : picked) order.push_back(key.index);
   return order;
 }
 
@@ -218,20 +266,41 @@ class ShiTomasiDetector : public Detector {
     column_cells_.resize(static_cast<size_t>(response_.cols));
     for (int x = 0; x < response_.cols; ++x) column_cells_[static_cast<size_t>(x)] = grid.Col(static_cast<float>(x));
     const float lowest = *std::min_element(thresholds.begin(), thresholds.end());
+    // Pixels that are a (non-strict) 3x3 maximum and pass the lowest
+    // threshold, found by OpenCV's vectorised dilate and comparisons, so the
+    // scalar test below runs on those only: c >= every neighbour is the
+    // "after it not larger" half of the rule; the strict half is checked
+    // there. The same detections in the same raster order as testing every
+    // pixel.
+    cv::dilate(response_, dilated_, cv::Mat());
+    cv::compare(response_, dilated_, is_max_, cv::CMP_GE);
+    cv::compare(response_, lowest, above_lowest_, cv::CMP_GE);
+    cv::bitwise_and(is_max_, above_lowest_, is_max_);
     std::vector<Eigen::Vector2f> pixels;
     std::vector<float> scores;
     for (int y = 1; y + 1 < response_.rows; ++y) {
       const float* above = response_.ptr<float>(y - 1);
       const float* row = response_.ptr<float>(y);
-      const float* below = response_.ptr<float>(y + 1);
+      const uint8_t* flags = is_max_.ptr<uint8_t>(y);
       const float* row_thresholds = &thresholds[static_cast<size_t>(grid.Cell(0, grid.Row(static_cast<float>(y))))];
-      for (int x = 1; x + 1 < response_.cols; ++x) {
+      const int end = response_.cols - 1;
+      for (int x = 1; x < end; ++x) {
+        // Eight flags at a time: most of a row is no candidate.
+        if (x + 8 <= end) {
+          uint64_t word;
+          std::memcpy(&word, flags + x, sizeof word);
+          if (word == 0) {
+            x += 7;
+            continue;
+          }
+        }
+        if (flags[x] == 0) continue;
         const float c = row[x];
-        if (c < lowest || c < row_thresholds[column_cells_[static_cast<size_t>(x)]]) continue;
+        if (c < row_thresholds[column_cells_[static_cast<size_t>(x)]]) continue;
         // Strict 3x3 maximum; on a plateau the first pixel in raster order wins
         // (neighbours before it must be smaller, after it not larger).
         if (!(above[x - 1] < c && above[x] < c && above[x + 1] < c && row[x - 1] < c)) continue;
-        if (row[x + 1] > c || below[x - 1] > c || below[x] > c || below[x + 1] > c) continue;
+        const float* below = response_.ptr<float>(y + 1);
         const float px = static_cast<float>(x) + ParabolaPeak(row[x - 1], c, row[x + 1]);
         const float py = static_cast<float>(y) + ParabolaPeak(above[x], c, below[x]);
         if (!Admissible(px, py, image, mask, border_px)) continue;
@@ -281,6 +350,7 @@ class ShiTomasiDetector : public Detector {
   }
 
   cv::Mat response_;             // reused between frames
+  cv::Mat dilated_, is_max_, above_lowest_;  // reused between frames
   std::vector<float> samples_;  // reused between frames
   std::vector<int> column_cells_;  // reused between frames
   std::vector<uint32_t> histogram_;  // reused between frames

@@ -6,42 +6,49 @@
 #include <Eigen/SVD>
 #include <cmath>
 #include <limits>
+#include <vector>
 #include <utility>
 
 namespace mcvo {
 namespace {
 
-// Bilinear sample of a CV_8UC1 image; the caller keeps (x, y) inside
-// [0, cols - 1] x [0, rows - 1].
-inline float Sample(const cv::Mat& image, float x, float y) {
-  const int x0 = std::min(static_cast<int>(x), image.cols - 2);
-  const int y0 = std::min(static_cast<int>(y), image.rows - 2);
-  const float ax = x - static_cast<float>(x0);
-  const float ay = y - static_cast<float>(y0);
-  const uint8_t* r0 = image.ptr<uint8_t>(y0) + x0;
-  const uint8_t* r1 = image.ptr<uint8_t>(y0 + 1) + x0;
-  const float top = static_cast<float>(r0[0]) + ax * (static_cast<float>(r0[1]) - static_cast<float>(r0[0]));
-  const float bottom = static_cast<float>(r1[0]) + ax * (static_cast<float>(r1[1]) - static_cast<float>(r1[0]));
-  return top + ay * (bottom - top);
-}
-
-inline bool Inside(const cv::Mat& image, float x, float y) {
-  return x >= 0.0f && y >= 0.0f && x <= static_cast<float>(image.cols - 1) && y <= static_cast<float>(image.rows - 1);
-}
-
 // Samples the (2 h + 1)^2 template grid warped by y = warp * x + centre,
-// row-major; false when a sample leaves the image.
+// row-major; false when a sample leaves the image. Each sample position is
+// (warp(i, 0) u + warp(i, 1) v) + centre(i), the operations of the Eigen
+// expression in its order, with the products of the column's u computed
+// once per call instead of once per sample.
 bool SampleWarped(const cv::Mat& image, const Eigen::Matrix2f& warp, const Eigen::Vector2f& centre, int h,
                   Eigen::VectorXf* values) {
   if (image.cols < 2 || image.rows < 2) return false;  // no bilinear cell
   const int side = 2 * h + 1;
   values->resize(side * side);
-  int k = 0;
+  thread_local std::vector<float> ux, uy;  // warp(0, 0) u, warp(1, 0) u
+  ux.resize(static_cast<size_t>(side));
+  uy.resize(static_cast<size_t>(side));
+  for (int u = -h; u <= h; ++u) {
+    ux[static_cast<size_t>(u + h)] = warp(0, 0) * static_cast<float>(u);
+    uy[static_cast<size_t>(u + h)] = warp(1, 0) * static_cast<float>(u);
+  }
+  const float max_x = static_cast<float>(image.cols - 1), max_y = static_cast<float>(image.rows - 1);
+  const uint8_t* data = image.data;
+  const size_t step = image.step[0];
+  float* out = values->data();
   for (int v = -h; v <= h; ++v) {
-    for (int u = -h; u <= h; ++u, ++k) {
-      const Eigen::Vector2f y = warp * Eigen::Vector2f(static_cast<float>(u), static_cast<float>(v)) + centre;
-      if (!Inside(image, y.x(), y.y())) return false;
-      (*values)[k] = Sample(image, y.x(), y.y());
+    const float vx = warp(0, 1) * static_cast<float>(v), vy = warp(1, 1) * static_cast<float>(v);
+    for (int i = 0; i < side; ++i) {
+      const float x = ux[static_cast<size_t>(i)] + vx + centre.x();
+      const float y = uy[static_cast<size_t>(i)] + vy + centre.y();
+      if (!(x >= 0.0f && y >= 0.0f && x <= max_x && y <= max_y)) return false;
+      // Bilinear; x0, y0 kept so that x0 + 1, y0 + 1 are in the image.
+      const int x0 = std::min(static_cast<int>(x), image.cols - 2);
+      const int y0 = std::min(static_cast<int>(y), image.rows - 2);
+      const float ax = x - static_cast<float>(x0);
+      const float ay = y - static_cast<float>(y0);
+      const uint8_t* r0 = data + static_cast<size_t>(y0) * step + x0;
+      const uint8_t* r1 = r0 + step;
+      const float top = static_cast<float>(r0[0]) + ax * (static_cast<float>(r0[1]) - static_cast<float>(r0[0]));
+      const float bottom = static_cast<float>(r1[0]) + ax * (static_cast<float>(r1[1]) - static_cast<float>(r1[0]));
+      *out++ = top + ay * (bottom - top);
     }
   }
   return true;

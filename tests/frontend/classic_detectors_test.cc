@@ -204,6 +204,57 @@ TEST(CapWithSpreadExtrasTest, TheTopByScoreThenSpreadExtras) {
   EXPECT_TRUE(internal::CapWithSpreadExtras(pixels, scores, 0, 320, 160).empty());
 }
 
+// CapWithSpreadExtras by its definition: every detection sorted, the top
+// max_candidates, then SpatiallyBalancedOrder over the others (indices kept
+// in input order, so its ties by index are the same).
+std::vector<int> CapByDefinition(const std::vector<Eigen::Vector2f>& pixels, const std::vector<float>& scores,
+                                 int cap, int width, int height) {
+  const int n = static_cast<int>(pixels.size());
+  std::vector<int> order = internal::SpatiallyBalancedOrder(pixels, scores, n, width, height);
+  if (n <= cap) return order;
+  std::vector<bool> top(pixels.size(), false);
+  for (int k = 0; k < cap; ++k) top[static_cast<size_t>(order[static_cast<size_t>(k)])] = true;
+  order.resize(static_cast<size_t>(cap));
+  std::vector<int> rest;
+  std::vector<Eigen::Vector2f> rest_pixels;
+  std::vector<float> rest_scores;
+  for (int i = 0; i < n; ++i) {
+    if (top[static_cast<size_t>(i)]) continue;
+    rest.push_back(i);
+    rest_pixels.push_back(pixels[static_cast<size_t>(i)]);
+    rest_scores.push_back(scores[static_cast<size_t>(i)]);
+  }
+  for (int k : internal::SpatiallyBalancedOrder(rest_pixels, rest_scores, cap, width, height)) {
+    order.push_back(rest[static_cast<size_t>(k)]);
+  }
+  return order;
+}
+
+TEST(CapWithSpreadExtrasTest, SameAsSortingEveryDetection) {
+  // Random detections, bunched in one corner for some seeds, with tied
+  // scores and tied positions, against caps from 1 to more than there are.
+  for (unsigned seed = 1; seed <= 40; ++seed) {
+    std::mt19937 rng(seed);
+    const int width = 300 + static_cast<int>(rng() % 900), height = 100 + static_cast<int>(rng() % 400);
+    const int n = static_cast<int>(rng() % 3000);
+    const bool bunched = seed % 3 == 0;
+    std::vector<Eigen::Vector2f> pixels;
+    std::vector<float> scores;
+    for (int i = 0; i < n; ++i) {
+      const float fx = static_cast<float>(rng() % 1000) / 1000.0f, fy = static_cast<float>(rng() % 1000) / 1000.0f;
+      const float spread = bunched && i % 4 != 0 ? 0.2f : 1.0f;
+      pixels.emplace_back(std::floor(fx * spread * static_cast<float>(width - 1)),
+                          std::floor(fy * spread * static_cast<float>(height - 1)));
+      scores.push_back(static_cast<float>(rng() % 200));  // many ties
+    }
+    for (int cap : {1, 7, 64, 160, 400, 1500, 4000}) {
+      EXPECT_EQ(internal::CapWithSpreadExtras(pixels, scores, cap, width, height),
+                CapByDefinition(pixels, scores, cap, width, height))
+          << "seed " << seed << ", " << n << " detections, cap " << cap;
+    }
+  }
+}
+
 TEST(SpatiallyBalancedOrderTest, EveryCellsBestBeforeAnyCellsSecond) {
   // 320 x 160: cells of sqrt(320 * 160 / 64) = 28 px, 12 x 6 cells.
   const internal::CandidateGrid grid(320, 160);
