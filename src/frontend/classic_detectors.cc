@@ -68,9 +68,7 @@ std::vector<DetectionKey> MakeKeys(const std::vector<Eigen::Vector2f>& pixels, c
   return keys;
 }
 
-// Order of the detections: decreasing score, then smaller y, then smaller x,
-// then input order (a total order: std::sort gives what a stable sort
-// would); the first max_candidates of it.
+// The first max_candidates detections in KeyBefore's order.
 std::vector<int> SortedOrder(const std::vector<Eigen::Vector2f>& pixels, const std::vector<float>& scores,
                              int max_candidates) {
   std::vector<DetectionKey> keys = MakeKeys(pixels, scores);

@@ -6,8 +6,8 @@
 #include <Eigen/SVD>
 #include <cmath>
 #include <limits>
-#include <vector>
 #include <utility>
+#include <vector>
 
 namespace mcvo {
 namespace {
