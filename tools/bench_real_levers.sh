@@ -8,7 +8,13 @@
 #       defaults: build/mcvo, ${TMPDIR:-/tmp}/mcvo_bench_real_levers
 #   env DATA    the real samples (default ../shared/data/real)
 #   env REPEAT  runs per sample and lever (default 3): CPU s/frame is their
-#               median; the trajectory is compared byte for byte across them
+#               median; the trajectory is compared byte for byte across them.
+#               The repeats are interleaved (lever 1, 2, ..., then again), so
+#               a machine that slows down for a while slows every lever alike
+#   env LEVERS_FILE  a file of levers to run instead of the built-in list, one
+#               per line as `name|override JSON` (# comments and empty
+#               lines skipped); e.g. tools/levers/feature_budget.txt
+#   env OUT_MD  the table's file (default results/real_speed_levers.md)
 #
 # Each lever is a config override on top of the built-in defaults (LEVERS
 # below); every sample that `mcvo info --dataset` reads and that has ground
@@ -42,6 +48,16 @@ LEVERS=(
   'loop.feature_max_megapixels 0.25|{"loop":{"feature_max_megapixels":0.25}}'
   'rematch_every 4 + loop features 0.25 Mpx|{"frontend":{"cross_camera":{"rematch_every":4}},"loop":{"feature_max_megapixels":0.25}}'
 )
+OUT_MD=${OUT_MD:-results/real_speed_levers.md}
+if [[ -n ${LEVERS_FILE:-} ]]; then
+  [[ -f $LEVERS_FILE ]] || { echo "bench_real_levers.sh: no levers file $LEVERS_FILE" >&2; exit 1; }
+  COMMAND_LINE="LEVERS_FILE=$LEVERS_FILE $COMMAND_LINE"
+  mapfile -t LEVERS < <(grep -v -e '^[[:space:]]*#' -e '^[[:space:]]*$' "$LEVERS_FILE")
+  for lever in "${LEVERS[@]}"; do
+    [[ $lever == *'|'* ]] || { echo "bench_real_levers.sh: not 'name|JSON': $lever" >&2; exit 1; }
+  done
+fi
+[[ $OUT_MD == results/real_speed_levers.md ]] || COMMAND_LINE="OUT_MD=$OUT_MD $COMMAND_LINE"
 
 LOAD_BEFORE=$(cut -d' ' -f1-3 /proc/loadavg)
 ROWS=$SCRATCH/rows.tsv
@@ -55,29 +71,33 @@ for dir in "$DATA"/*/; do
     [[ -f $dir/$g ]] && { gt=$dir/$g; break; }
   done
   [[ $gt == - ]] && continue
-  for k in "${!LEVERS[@]}"; do
-    name=${LEVERS[$k]%%|*}
-    config=$SCRATCH/lever_$k.json
-    printf '%s\n' "${LEVERS[$k]#*|}" > "$config"
-    cpus=()
-    for ((r = 1; r <= REPEAT; r++)); do
+  declare -A cpus=()
+  for ((r = 1; r <= REPEAT; r++)); do
+    for k in "${!LEVERS[@]}"; do
+      name=${LEVERS[$k]%%|*}
+      config=$SCRATCH/lever_$k.json
+      printf '%s\n' "${LEVERS[$k]#*|}" > "$config"
       out=$SCRATCH/run_${k}_${sample}_$r
       read -r _ cpu < <(seconds_of "$MCVO" run --dataset "$dir" --config "$config" --threads 1 --force --out "$out")
-      cpus+=("$cpu")
+      cpus[$k]="${cpus[$k]:-}${cpus[$k]:+ }$cpu"
       cmp -s "$out/trajectory.tum" "$SCRATCH/run_${k}_${sample}_1/trajectory.tum" ||
         { echo "bench_real_levers.sh: $sample, $name: run $r's trajectory differs from run 1's" >&2; exit 1; }
+      echo "$sample, $name, run $r: CPU s $cpu" >&2
     done
+  done
+  for k in "${!LEVERS[@]}"; do
+    name=${LEVERS[$k]%%|*}
     out=$SCRATCH/run_${k}_${sample}_1
     for align in se3 sim3; do
       "$MCVO" eval --gt "$gt" --est "$out/trajectory.tum" --align $align --force --out "$out/eval_$align" > /dev/null
     done
-    printf '%s\t%s\t%s\t%s\n' "$sample" "$name" "$out" "${cpus[*]}" >> "$ROWS"
-    echo "$sample, $name: CPU s ${cpus[*]}" >&2
+    printf '%s\t%s\t%s\t%s\n' "$sample" "$name" "$out" "${cpus[$k]}" >> "$ROWS"
   done
+  unset cpus
 done
 LOAD_AFTER=$(cut -d' ' -f1-3 /proc/loadavg)
 
-$PY - "$ROWS" "$COMMAND_LINE" "$MCVO" "$REPEAT" "$LOAD_BEFORE" "$LOAD_AFTER" > results/real_speed_levers.md <<'PY'
+$PY - "$ROWS" "$COMMAND_LINE" "$MCVO" "$REPEAT" "$LOAD_BEFORE" "$LOAD_AFTER" > "$OUT_MD" <<'PY'
 import datetime, json, statistics, subprocess, sys
 rows, command_line, mcvo, repeat, load_before, load_after = sys.argv[1:]
 commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
@@ -109,4 +129,4 @@ for line in open(rows):
         cols = [se3, f"{pct['sim3']:.3f}", scale]
     print(f"| {sample} | {name} | {posed} | {statistics.median(cpu):.4f} | {min(cpu):.4f}-{max(cpu):.4f} | " + " | ".join(cols) + " |")
 PY
-cat results/real_speed_levers.md
+cat "$OUT_MD"

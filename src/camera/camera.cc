@@ -50,6 +50,10 @@ int CameraModelNumParams(CameraModelId id) {
   return VisitCameraModel(id, [](auto model) { return decltype(model)::kNumParams; });
 }
 
+bool IsFisheyeModel(CameraModelId id) {
+  return id == CameraModelId::kKannalaBrandt || id == CameraModelId::kMei || id == CameraModelId::kDoubleSphere;
+}
+
 std::string CameraParamsError(CameraModelId id, const std::vector<double>& params) {
   const int expected = CameraModelNumParams(id);
   if (static_cast<int>(params.size()) != expected) {

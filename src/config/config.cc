@@ -84,6 +84,7 @@ void Visit(V& v, FrontendOptions* o) {
   v.Field("model_path", &o->model_path);
   v.Field("max_features_pinhole", &o->max_features_pinhole);
   v.Field("max_features_fisheye", &o->max_features_fisheye);
+  v.Field("max_features_pinhole_megapixels", &o->max_features_pinhole_megapixels);
   v.Field("min_distance_px", &o->min_distance_px);
   v.Field("pixel_scale_reference_px", &o->pixel_scale_reference_px);
   v.Enum("selection", &o->selection, kFeatureSelectionNames);

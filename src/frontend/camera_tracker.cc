@@ -58,11 +58,6 @@ double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-bool IsFisheye(CameraModelId model) {
-  return model == CameraModelId::kKannalaBrandt || model == CameraModelId::kMei ||
-         model == CameraModelId::kDoubleSphere;
-}
-
 // Copies the rows `keep` of `rows` (empty stays empty).
 cv::Mat SelectRows(const cv::Mat& rows, const std::vector<int>& keep) {
   if (rows.empty()) return cv::Mat();
@@ -165,7 +160,7 @@ CameraTracker::CameraTracker(const Camera& camera, const cv::Mat& mask, const Fr
   impl_->align.min_zncc = options.anchor.min_zncc;
   impl_->align.max_shift_px = options.anchor.max_shift_px;
   impl_->align.max_warp_change = options.anchor.max_warp_change;
-  impl_->max_features = IsFisheye(camera.model) ? options.max_features_fisheye : options.max_features_pinhole;
+  impl_->max_features = IsFisheyeModel(camera.model) ? options.max_features_fisheye : options.max_features_pinhole;
   impl_->border_px =
       options.detector == DetectorType::kSuperPoint ? std::max(1, options.superpoint.border_px) : 1;
   if (options.detector == DetectorType::kShiTomasi) {

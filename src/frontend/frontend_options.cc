@@ -15,6 +15,7 @@ void FrontendOptions::Check() const {
   }
   CheckPositive("/frontend/max_features_pinhole", max_features_pinhole);
   CheckPositive("/frontend/max_features_fisheye", max_features_fisheye);
+  CheckAtLeast("/frontend/max_features_pinhole_megapixels", max_features_pinhole_megapixels, 0.0);
   CheckAtLeast("/frontend/min_distance_px", min_distance_px, 0);
   CheckAtLeast("/frontend/pixel_scale_reference_px", pixel_scale_reference_px, 0.0);
   CheckAtLeast("/frontend/candidate_factor", candidate_factor, 1);
@@ -58,6 +59,16 @@ double PixelScaleForCamera(const FrontendOptions& options, int width, int height
   if (!(options.pixel_scale_reference_px > 0.0) || width <= 0 || height <= 0) return 1.0;
   const double size = std::sqrt(static_cast<double>(width) * static_cast<double>(height));
   return std::min(1.0, size / options.pixel_scale_reference_px);
+}
+
+int PinholeFeatureBudget(const FrontendOptions& options, int width, int height) {
+  const int base = options.max_features_pinhole;
+  if (!(options.max_features_pinhole_megapixels > 0.0) || width <= 0 || height <= 0) return base;
+  const double ratio = static_cast<double>(width) * static_cast<double>(height) /
+                       (options.max_features_pinhole_megapixels * 1e6);
+  if (!(ratio > 1.0)) return base;
+  constexpr double kMaxBudget = 20000.0;  // the bound of max_features_pinhole itself
+  return std::max(base, static_cast<int>(std::lround(std::min(kMaxBudget, base * ratio))));
 }
 
 FrontendOptions ScalePixelParameters(const FrontendOptions& options, double scale) {

@@ -74,6 +74,29 @@ void LogScaledCameras(const Rig& rig, const FrontendOptions& options, const std:
   }
 }
 
+// Says which pinhole cameras PinholeFeatureBudget gave more features than
+// max_features_pinhole, one line per image size.
+void LogFeatureBudgets(const Rig& rig, const FrontendOptions& options) {
+  std::vector<std::pair<std::pair<int, int>, std::string>> groups;  // (width, height), names
+  for (const Camera& camera : rig.cameras) {
+    if (IsFisheyeModel(camera.model)) continue;
+    if (PinholeFeatureBudget(options, camera.width, camera.height) == options.max_features_pinhole) continue;
+    const std::pair<int, int> size{camera.width, camera.height};
+    const auto same = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == size; });
+    if (same == groups.end()) {
+      groups.emplace_back(size, camera.name);
+    } else {
+      same->second += ", " + camera.name;
+    }
+  }
+  for (const auto& [size, names] : groups) {
+    MCVO_LOG(kInfo, "frontend: ", names, " (", size.first, "x", size.second, " px): ",
+             PinholeFeatureBudget(options, size.first, size.second), " features per image (max_features_pinhole ",
+             options.max_features_pinhole, " per ", FormatFixed(options.max_features_pinhole_megapixels, 2),
+             " Mpx, frontend.max_features_pinhole_megapixels)");
+  }
+}
+
 }  // namespace
 
 int CountCrossCameraMatches(const MultiCameraFrame& frame, int camera_a) {
@@ -106,9 +129,11 @@ MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat
   const std::vector<double> scales = PixelScales(rig, options);
   for (int c = 0; c < rig.NumCameras(); ++c) {
     const cv::Mat mask = masks.empty() ? cv::Mat() : masks[static_cast<size_t>(c)];
-    const FrontendOptions camera_options = ScalePixelParameters(options, scales[static_cast<size_t>(c)]);
-    impl_->trackers.push_back(std::make_unique<CameraTracker>(rig.cameras[static_cast<size_t>(c)], mask,
-                                                              camera_options, CreateDetector(camera_options)));
+    const Camera& camera = rig.cameras[static_cast<size_t>(c)];
+    FrontendOptions camera_options = ScalePixelParameters(options, scales[static_cast<size_t>(c)]);
+    camera_options.max_features_pinhole = PinholeFeatureBudget(options, camera.width, camera.height);
+    impl_->trackers.push_back(
+        std::make_unique<CameraTracker>(camera, mask, camera_options, CreateDetector(camera_options)));
   }
   impl_->pairs = SelectCrossCameraPairs(rig, masks, options.cross_camera);
   // Each matcher computes its warp maps (a Project per pixel of camera a
@@ -137,6 +162,7 @@ MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat
   impl_->frames_since_full.assign(impl_->pairs.size(), 0);
   impl_->full_matches.assign(impl_->pairs.size(), 0);
   LogScaledCameras(rig, options, scales);
+  LogFeatureBudgets(rig, options);
 }
 
 MultiCameraTracker::~MultiCameraTracker() = default;

@@ -237,6 +237,59 @@ TEST(MultiCameraTrackerTest, OnlySmallCamerasGetScaledParameters) {
   }
 }
 
+TEST(MultiCameraTrackerTest, PinholeFeatureBudgetKeepsTheDensity) {
+  FrontendOptions options;  // 100 features per 0.25 Mpx
+  EXPECT_EQ(PinholeFeatureBudget(options, 704, 188), 100);    // the stereo preset at half resolution
+  EXPECT_EQ(PinholeFeatureBudget(options, 602, 384), 100);    // the roof pair at 0.8, the suite's largest
+  EXPECT_EQ(PinholeFeatureBudget(options, 625, 400), 100);    // exactly the reference
+  EXPECT_EQ(PinholeFeatureBudget(options, 1241, 376), 187);   // KITTI odometry: 100 x 0.4666 / 0.25
+  EXPECT_EQ(PinholeFeatureBudget(options, 752, 480), 144);    // EuRoC
+  EXPECT_EQ(PinholeFeatureBudget(options, 1408, 376), 212);   // KITTI-360's pinholes
+  EXPECT_EQ(PinholeFeatureBudget(options, 0, 480), 100);
+  options.max_features_pinhole = 5000;
+  EXPECT_EQ(PinholeFeatureBudget(options, 4000, 3000), 20000);  // capped at max_features_pinhole's own bound
+  options.max_features_pinhole = 20000;
+  EXPECT_EQ(PinholeFeatureBudget(options, 4000, 3000), 20000);
+  options.max_features_pinhole = 100;
+  options.max_features_pinhole_megapixels = 0.0;
+  EXPECT_EQ(PinholeFeatureBudget(options, 1241, 376), 100);
+  options.max_features_pinhole_megapixels = 0.15;
+  EXPECT_EQ(PinholeFeatureBudget(options, 1241, 376), 311);
+}
+
+// The quarter-resolution KITTI-360 rig with a reference of 0.01 Mpx: the
+// 352 x 94 pinholes (0.033 Mpx) get a budget of 331 and find more than 100
+// features (6 px apart, so that they fit); the fisheyes keep
+// max_features_fisheye and track as before.
+TEST(MultiCameraTrackerTest, LargePinholeCamerasGetALargerBudget) {
+  const RigSequence& seq = Sequence();
+  FrontendOptions fixed;
+  fixed.min_distance_px = 6;
+  fixed.max_features_pinhole_megapixels = 0.0;
+  FrontendOptions dense = fixed;
+  dense.max_features_pinhole_megapixels = 0.01;
+  ASSERT_EQ(PinholeFeatureBudget(dense, 352, 94), 331);
+  const std::vector<MultiCameraFrame> a = TrackAll(2, seq.frames, fixed);
+  const std::vector<MultiCameraFrame> b = TrackAll(2, seq.frames, dense);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t f = 0; f < a.size(); ++f) {
+    for (size_t c = 0; c < 2; ++c) {
+      EXPECT_LE(a[f].cameras[c].features.size(), 100u) << "frame " << f << " camera " << c;
+      EXPECT_GT(b[f].cameras[c].features.size(), 100u) << "frame " << f << " camera " << c;
+      EXPECT_LE(b[f].cameras[c].features.size(), 331u) << "frame " << f << " camera " << c;
+    }
+    for (size_t c = 2; c < 4; ++c) {
+      const std::vector<TrackedFeature>& fa = a[f].cameras[c].features;
+      const std::vector<TrackedFeature>& fb = b[f].cameras[c].features;
+      ASSERT_EQ(fa.size(), fb.size()) << "frame " << f << " camera " << c;
+      for (size_t i = 0; i < fa.size(); ++i) {
+        EXPECT_TRUE(SameBits(fa[i].pixel.x(), fb[i].pixel.x()));
+        EXPECT_TRUE(SameBits(fa[i].pixel.y(), fb[i].pixel.y()));
+      }
+    }
+  }
+}
+
 TEST(MultiCameraTrackerTest, MissingCameraImage) {
   const RigSequence& seq = Sequence();
   std::vector<std::vector<cv::Mat>> frames = seq.frames;

@@ -33,6 +33,9 @@ std::string_view CameraModelName(CameraModelId id);
 // Inverse of CameraModelName; also accepts the aliases "opencv" (radtan),
 // "equidistant" and "fisheye" (kannala_brandt), "omni" and "unified" (mei).
 std::optional<CameraModelId> CameraModelFromName(std::string_view name);
+// The fisheye models (kannala_brandt, mei, double_sphere): the frontend's
+// max_features_fisheye budget; the others take max_features_pinhole.
+bool IsFisheyeModel(CameraModelId id);
 // Number of parameters stored for the model (radtan: 9, k3 included).
 int CameraModelNumParams(CameraModelId id);
 // Empty when `params` are usable for the model, else a one-line reason

@@ -165,6 +165,19 @@ struct FrontendOptions {
   std::string model_path;  // ONNX model of xfeat / superpoint; required for those
   int max_features_pinhole = 100;
   int max_features_fisheye = 150;
+  // Large pinhole cameras: max_features_pinhole is the budget of a pinhole
+  // or radtan camera of up to this many megapixels (the renders it was set
+  // and checked on: 0.05-0.23 Mpx); a larger one keeps that density, budget
+  // x its megapixels / this (PinholeFeatureBudget below; MultiCameraTracker
+  // applies it per camera). On real KITTI stereo (0.47 Mpx: 187 features)
+  // the scale was 0.64 % (kitti06) and 6.1 % (kitti01) too long with 100,
+  // 0.38 % and 5.4 % with 187. A reference of 0.15 gave KITTI more (311
+  // features: 0.33 %, 3.9 %) but moved the 0.23 Mpx roof-pair renders both
+  // ways (monocular median ATE 0.060 -> 0.100 %); results/feature_budget.md.
+  // Fisheye budgets are kept as given (no real fisheye recording to measure
+  // them on; the KITTI-360 fisheyes at full resolution would get 8 x).
+  // 0: never.
+  double max_features_pinhole_megapixels = 0.25;
   int min_distance_px = 20;
   // Small cameras: the frontend's pixel-sized parameters (min_distance_px,
   // lk.window_px, anchor.half_size_px, clahe.tile_grid) were chosen on
@@ -209,6 +222,12 @@ struct FrontendOptions {
 // by: min(1, sqrt(width x height) / pixel_scale_reference_px); 1 when the
 // reference is 0 or the size is not positive.
 double PixelScaleForCamera(const FrontendOptions& options, int width, int height);
+
+// The budget of a pinhole camera of width x height: max_features_pinhole,
+// times width x height / (max_features_pinhole_megapixels x 10^6) when that
+// is over 1 (rounded, at most 20000, never below max_features_pinhole);
+// max_features_pinhole when the reference is 0 or the size not positive.
+int PinholeFeatureBudget(const FrontendOptions& options, int width, int height);
 
 // `options` with its pixel-sized parameters scaled by `scale` (in (0, 1];
 // 1 returns them unchanged): min_distance_px and anchor.half_size_px

@@ -65,7 +65,9 @@ class MultiCameraTracker {
   // masks: one per camera (empty Mat: no mask), or none at all. Detectors are created per
   // camera with CreateDetector (so model errors surface here, at start-up).
   // Fisheye cameras (kannala_brandt, mei, double_sphere) get
-  // max_features_fisheye, the others max_features_pinhole.
+  // max_features_fisheye, the others max_features_pinhole, or more on a
+  // pinhole camera larger than max_features_pinhole_megapixels
+  // (PinholeFeatureBudget: the same density).
   MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat>& masks, const FrontendOptions& options,
                      int threads);
   ~MultiCameraTracker();
