@@ -169,9 +169,9 @@ struct FrontendOptions {
   // or radtan camera of up to this many megapixels (the renders it was set
   // and checked on: 0.05-0.23 Mpx); a larger one keeps that density, budget
   // x its megapixels / this (PinholeFeatureBudget below; MultiCameraTracker
-  // applies it per camera). On real KITTI stereo (0.47 Mpx: 187 features)
+  // applies it per camera). On real KITTI stereo (0.45-0.47 Mpx: 181-187 features)
   // the scale was 0.64 % (kitti06) and 6.1 % (kitti01) too long with 100,
-  // 0.38 % and 5.4 % with 187. A reference of 0.15 gave KITTI more (311
+  // 0.38 % and 5.4 % with 181-187. A reference of 0.15 gave KITTI more (302-311
   // features: 0.33 %, 3.9 %) but moved the 0.23 Mpx roof-pair renders both
   // ways (monocular median ATE 0.060 -> 0.100 %); results/feature_budget.md.
   // Fisheye budgets are kept as given (no real fisheye recording to measure
