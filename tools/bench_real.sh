@@ -115,7 +115,7 @@ STILL_M = 0.1  # a ground truth that moves less than this stands still
 
 def evaluate(gt, est, align, name):
     out = os.path.join(scratch, "eval", f"{name}_{align}")
-    subprocess.run([mcvo, "eval", "--gt", gt, "--est", est, "--align", align, "--out", out],
+    subprocess.run([mcvo, "eval", "--gt", gt, "--est", est, "--align", align, "--out", out, "--force"],
                    check=True, stdout=subprocess.DEVNULL)
     return json.load(open(os.path.join(out, "eval.json")))
 
@@ -156,6 +156,10 @@ def score(gt, est, name, scale_metric):
     row["rpe_rot_deg_per_100m"] = 100 * rpe["rotation_deg_per_m"] if rpe and orient and not still else None
     row["rpe_rot_deg"] = rpe["rotation_deg"] if rpe and orient else None
     row["orientation"] = orient
+    # Frame to frame: the metric step error for a metric run (se3 keeps relative motions), the
+    # Sim3-scaled one for an arbitrary-scale run.
+    step = (se3 if scale_metric else sim3)["rpe"]["step"]["translation_m"]
+    row["rpe_step_mm"] = 1000 * step["rmse"] if step["count"] > 0 else None
     return row
 
 runs = [r.rstrip("\n").split("\t") for r in open(os.path.join(scratch, "runs.tsv"))]
@@ -196,7 +200,7 @@ for sample in samples:
 
 keys = ["sample", "system", "config", "frames", "posed", "matched", "scale", "gt_path_m", "est_path_m",
         "se3_ate_m", "se3_ate_percent", "sim3_ate_m", "sim3_ate_percent", "scale_error_percent",
-        "rpe_rot_deg_per_100m", "rpe_rot_deg", "cpu_s_per_frame_t2", "cpu_s_per_frame_t1", "wall_s_t2",
+        "rpe_rot_deg_per_100m", "rpe_rot_deg", "rpe_step_mm", "cpu_s_per_frame_t2", "cpu_s_per_frame_t1", "wall_s_t2",
         "wall_s_t1", "threads_identical", "readme_cpu", "readme_se3_ate_percent"]
 def cell(v):
     if v is None: return ""
@@ -233,15 +237,17 @@ print("Scoring, the same for every trajectory (mcvo's `trajectory.tum`, world_fr
       "and `--align sim3`, time association within 10 ms. ATE % = rmse / the matched ground-truth path. "
       "Scale error = 100 |1/s - 1| of the Sim3 fit (the estimate's size against the truth). RPE rotation: "
       "deg per 100 m, the mean over segments of 10-50 % of the path (eval's rpe.average), not a rotation "
-      "RMSE after a fit (not meaningful on a nearly straight road).\n")
+      "RMSE after a fit (not meaningful on a nearly straight road). RPE step: the translation rmse of the "
+      "error between consecutive frames (eval's rpe.step; of the Sim3 fit for an arbitrary scale), in mm: "
+      "what a pose that jumps relative to its neighbours costs.\n")
 print("| sample | system | config | posed / frames | SE3 ATE % | Sim3 ATE % | scale error % | "
-      "RPE rotation deg/100 m | CPU s/frame (t2 / t1) | t1 = t2 |")
-print("|---|---|---|---|---|---|---|---|---|---|")
+      "RPE rotation deg/100 m | RPE step mm | CPU s/frame (t2 / t1) | t1 = t2 |")
+print("|---|---|---|---|---|---|---|---|---|---|---|")
 def pct(v, d=3): return "-" if v is None else f"{v:.{d}f}"
 notes = set()
 for r in rows:
     if "matched" not in r:
-        se3 = sim3 = se = rot = "no ground truth"
+        se3 = sim3 = se = rot = step = "no ground truth"
     elif r["still"]:
         se3 = f"{1000 * r['se3_ate_m']:.2f} mm" if r["se3_ate_m"] is not None else "-"
         sim3 = f"{1000 * r['sim3_ate_m']:.2f} mm"
@@ -255,6 +261,8 @@ for r in rows:
             se3 = se = "arbitrary scale"
         if not r["orientation"]:
             rot = "positions only"
+    if "matched" in r:
+        step = pct(r["rpe_step_mm"], 1)
     if r["cpu_source"] == "measured":
         cpu = f"{r['cpu_s_per_frame_t2']:.3f} / {r['cpu_s_per_frame_t1']:.3f}"
         same = "yes" if r["threads_identical"] else "**NO**"
@@ -264,7 +272,7 @@ for r in rows:
     if "matched" in r and r["matched"] < r["posed"]:
         posed += f" ({r['matched']} with gt)"
         notes.add("matched")
-    print(f"| {r['sample']} | {r['system']} | {r['config']} | {posed} | {se3} | {sim3} | {se} | {rot} | {cpu} | {same} |")
+    print(f"| {r['sample']} | {r['system']} | {r['config']} | {posed} | {se3} | {sim3} | {se} | {rot} | {step} | {cpu} | {same} |")
 print()
 skipped = [l.rstrip("\n").split("\t") for l in open(os.path.join(scratch, "skipped.tsv"))]
 for name, why in skipped:
@@ -283,7 +291,7 @@ print("positions only: the stored trajectory's orientations are all the identity
       "here). t1 = t2: mcvo's trajectory.tum at --threads 1 and 2 byte for byte.\n")
 # Where mcvo (its defaults) stands against the peers of the same sample, metric by metric.
 METRICS = [("se3_ate_percent", "SE3 ATE"), ("sim3_ate_percent", "Sim3 ATE"), ("scale_error_percent", "scale error"),
-           ("rpe_rot_deg_per_100m", "RPE rotation")]
+           ("rpe_rot_deg_per_100m", "RPE rotation"), ("rpe_step_mm", "RPE step mm")]
 lines = []
 for sample in samples:
     mine = next((r for r in rows if r["sample"] == sample and r["system"] == "mcvo" and r["config"] == "defaults"), None)

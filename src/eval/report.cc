@@ -48,6 +48,9 @@ Json RpeJson(const EvalResult& result) {
   j["computed"] = rpe.computed;
   j["skipped_reason"] = rpe.computed ? Json(nullptr) : Json(rpe.skipped_reason);
   j["gt_path_length_m"] = result.gt_matched_path_length_m;
+  j["step"] = {{"count", rpe.step.translation_m.count},
+               {"translation_m", StatsJson(rpe.step.translation_m)},
+               {"rotation_deg", StatsJson(rpe.step.rotation_deg)}};
   Json lengths = Json::array();
   for (const RpeLengthResult& length : rpe.lengths) {
     Json l;
@@ -186,6 +189,8 @@ std::string EvalResultToMarkdown(const EvalResult& result) {
   };
   ate_row("translation (m)", result.ate_translation_m);
   ate_row("rotation (deg)", result.ate_rotation_deg);
+  ate_row("RPE step, translation (m)", result.rpe.step.translation_m);
+  ate_row("RPE step, rotation (deg)", result.rpe.step.rotation_deg);
   out << "\n";
 
   if (result.rpe.computed) {

@@ -139,6 +139,12 @@ KeyValues SummaryRows(const ReportInputs& inputs) {
     rows.emplace_back("ATE mean / median / max", StatsLine(t, "m"));
     const ErrorStats& r = e.ate_rotation_deg;
     rows.emplace_back("ATE rotation RMSE", r.count > 0 ? Fixed(r.rmse, 4) + " deg" : "-");
+    const RpeStepResult& step = e.rpe.step;
+    if (step.translation_m.count > 0) {
+      rows.emplace_back("RPE step (consecutive poses) RMSE", StrCat(Fixed(step.translation_m.rmse, 4), " m, ",
+                                                                   Fixed(step.rotation_deg.rmse, 4), " deg over ",
+                                                                   step.translation_m.count, " steps"));
+    }
     const RpeAverage& avg = e.rpe.average;
     if (!e.rpe.computed) {
       rows.emplace_back("RPE", "skipped: " + e.rpe.skipped_reason);

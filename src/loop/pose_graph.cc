@@ -282,4 +282,47 @@ std::vector<Rigid3d> CorrectPoses(const std::vector<int64_t>& node_t_ns,
                       pose_t_ns, poses_before);
 }
 
+namespace {
+
+// Node `node`'s prediction of a pose (CorrectPoses' rule) with scale `scale`.
+Rigid3d CarriedBy(const Rigid3d& node_before, const Rigid3d& node_after, double scale, const Rigid3d& pose) {
+  const Rigid3d node_from_pose = node_before.Inverse() * pose;
+  return Rigid3d(node_after.rotation * node_from_pose.rotation,
+                 node_after.rotation * (scale * node_from_pose.translation) + node_after.translation);
+}
+
+}  // namespace
+
+std::vector<Rigid3d> InterpolateCorrections(const std::vector<int64_t>& node_t_ns, const std::vector<int>& node_segment,
+                                            const std::vector<Rigid3d>& node_before,
+                                            const std::vector<Rigid3d>& node_after,
+                                            const std::vector<double>& node_scale,
+                                            const std::vector<int64_t>& pose_t_ns,
+                                            const std::vector<int>& pose_segment,
+                                            const std::vector<Rigid3d>& poses_before) {
+  MCVO_CHECK(node_segment.size() == node_t_ns.size() && pose_segment.size() == pose_t_ns.size());
+  // Checks the rest (sizes, increasing times, scales).
+  std::vector<Rigid3d> poses_after = CorrectPoses(node_t_ns, node_before, node_after, node_scale, pose_t_ns, poses_before);
+  const size_t n = node_t_ns.size();
+  for (size_t p = 0; p < poses_before.size(); ++p) {
+    const size_t b = static_cast<size_t>(std::upper_bound(node_t_ns.begin(), node_t_ns.end(), pose_t_ns[p]) -
+                                         node_t_ns.begin());  // first node after t
+    const bool has_a = b > 0 && node_segment[b - 1] == pose_segment[p];
+    const bool has_b = b < n && node_segment[b] == pose_segment[p];
+    if (has_a && has_b) {
+      const size_t a = b - 1;
+      const double tau = static_cast<double>(pose_t_ns[p] - node_t_ns[a]) /
+                         static_cast<double>(node_t_ns[b] - node_t_ns[a]);
+      const Rigid3d from_a = CarriedBy(node_before[a], node_after[a], node_scale[a], poses_before[p]);
+      const Rigid3d from_b = CarriedBy(node_before[b], node_after[b], node_scale[a], poses_before[p]);
+      poses_after[p] = Rigid3d(from_a.rotation.slerp(tau, from_b.rotation),
+                               (1.0 - tau) * from_a.translation + tau * from_b.translation);
+    } else if (has_b) {
+      poses_after[p] = CarriedBy(node_before[b], node_after[b], node_scale[b], poses_before[p]);
+    }
+    // has_a alone, or neither: CorrectPoses' rule (latest node at or before).
+  }
+  return poses_after;
+}
+
 }  // namespace mcvo

@@ -36,10 +36,13 @@ inline bool RefineFusesLandmarks(const GlobalBaOptions& options, bool scale_free
 // scale_free: the run's scale is arbitrary). When it ran, `map` becomes the
 // refined map and `odometry` follows it: refined keyframes take their new
 // poses; every other pose (non-keyframes, keyframes the bundle adjustment
-// did not hold) keeps its pose relative to the latest refined keyframe at
-// or before it, its offset scaled by how much the refined keyframe interval
-// around it stretched (the refined scale applies between keyframes too);
-// refined landmarks take their new positions.
+// did not hold) follows the corrections of the refined keyframes before and
+// after it in its segment, blended by time, each relative to the keyframe's
+// pose when its frame was the newest (the reference the non-keyframe poses
+// share), its offset scaled by how much the refined keyframe interval
+// around it stretched (the refined scale applies between keyframes too;
+// pose_graph.h InterpolateCorrections); refined landmarks take their new
+// positions.
 // Loops the pose graph accepted (loops: may be null) enter as relative pose
 // constraints with the pose graph's loop sigmas and, with
 // options.fuse_loop_landmarks, through their inlier matches: the landmarks

@@ -245,6 +245,41 @@ TEST(Evaluate, InputErrorsNameTheFile) {
   EXPECT_THROW(EvaluateTrajectory(gt, Trajectory(), EvalOptions()), InputError);
 }
 
+TEST(Evaluate, StepRpeSeesOnePoseThatJumps) {
+  // gt: 20 poses 1 m apart along x, identity rotations. est = gt with pose 7
+  // displaced by (0, 0.3, 0.4) (0.5 m). align none. Only the two steps that
+  // touch pose 7 have an error, |t(E)| = 0.5 each (the relative motions are
+  // translations): 19 steps, rmse sqrt(2 * 0.25 / 19), max 0.5, median 0.
+  const auto line = [](int k) { return Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(k, 0.0, 0.0)); };
+  const Trajectory gt = MakeTrajectory(20, line);
+  const Trajectory est = MakeTrajectory(20, [&line](int k) {
+    Rigid3d pose = line(k);
+    if (k == 7) pose.translation += Eigen::Vector3d(0.0, 0.3, 0.4);
+    return pose;
+  });
+  const EvalResult result = EvaluateTrajectory(gt, est, WithAlign(AlignmentMode::kNone));
+  const ErrorStats& step = result.rpe.step.translation_m;
+  EXPECT_EQ(step.count, 19u);
+  EXPECT_NEAR(step.rmse, std::sqrt(2.0 * 0.25 / 19.0), 1e-12);
+  EXPECT_NEAR(step.max, 0.5, 1e-12);
+  EXPECT_NEAR(step.median, 0.0, 1e-12);
+  EXPECT_NEAR(result.rpe.step.rotation_deg.max, 0.0, 1e-9);
+  // The same trajectory without the jump: no step error.
+  const EvalResult clean = EvaluateTrajectory(gt, gt, WithAlign(AlignmentMode::kNone));
+  EXPECT_NEAR(clean.rpe.step.translation_m.max, 0.0, 1e-12);
+  // A rotation of 2 deg about z between poses 3 and 4 of the estimate only:
+  // from pose 4 on every pose turned by it (and moved with it); one step has
+  // an error of 2 deg.
+  const Trajectory turned = MakeTrajectory(20, [&line](int k) {
+    return k < 4 ? line(k)
+                 : Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(2.0 * kPi / 180.0, Eigen::Vector3d::UnitZ())),
+                           Eigen::Vector3d(k, 0.0, 0.0));
+  });
+  const EvalResult rotated = EvaluateTrajectory(gt, turned, WithAlign(AlignmentMode::kNone));
+  EXPECT_NEAR(rotated.rpe.step.rotation_deg.max, 2.0, 1e-9);
+  EXPECT_NEAR(rotated.rpe.step.rotation_deg.median, 0.0, 1e-9);
+}
+
 TEST(Evaluate, ZeroLengthGroundTruthSkipsRpe) {
   // gt stands still; est moves. align none (se3 would be undetermined).
   const Trajectory gt = MakeTrajectory(10, [](int) { return Rigid3d(); });
@@ -255,6 +290,7 @@ TEST(Evaluate, ZeroLengthGroundTruthSkipsRpe) {
   EXPECT_FALSE(result.notes.empty());
   EXPECT_FALSE(result.scale.available);  // the gt positions coincide
   EXPECT_EQ(result.ate_translation_m.count, 10u);
+  EXPECT_EQ(result.rpe.step.translation_m.count, 9u);  // the step error needs no path length
   // se3 on a point-like gt is an input error, not a crash.
   EXPECT_THROW(EvaluateTrajectory(gt, est, WithAlign(AlignmentMode::kSe3)), InputError);
 }

@@ -56,7 +56,9 @@ TEST(Report, JsonHasTheDocumentedKeys) {
   const std::vector<std::string> stats = Sorted({"count", "rmse", "mean", "median", "std", "min", "max"});
   EXPECT_EQ(Keys(j["ate"]), Sorted({"translation_m", "rotation_deg"}));
   EXPECT_EQ(Keys(j["ate"]["translation_m"]), stats);
-  EXPECT_EQ(Keys(j["rpe"]), Sorted({"computed", "skipped_reason", "gt_path_length_m", "lengths", "average"}));
+  EXPECT_EQ(Keys(j["rpe"]), Sorted({"computed", "skipped_reason", "gt_path_length_m", "step", "lengths", "average"}));
+  EXPECT_EQ(Keys(j["rpe"]["step"]), Sorted({"count", "translation_m", "rotation_deg"}));
+  EXPECT_EQ(Keys(j["rpe"]["step"]["translation_m"]), stats);
   ASSERT_EQ(j["rpe"]["lengths"].size(), 5u);
   EXPECT_EQ(Keys(j["rpe"]["lengths"][0]),
             Sorted({"length_m", "length_percent", "count", "translation_m", "translation_percent",

@@ -420,6 +420,91 @@ TEST(CorrectPoses, Sim3ScalesTheTranslationRelativeToTheNode) {
   }
 }
 
+// Node k's prediction of a pose (CorrectPoses' rule, scale s).
+Rigid3d CarriedByNode(const CorrectionCase& c, int k, double s, const Rigid3d& pose) {
+  const Rigid3d relative = c.node_before[static_cast<size_t>(k)].Inverse() * pose;
+  const Rigid3d& after = c.node_after[static_cast<size_t>(k)];
+  return Rigid3d(after.rotation * relative.rotation, after.rotation * (s * relative.translation) + after.translation);
+}
+
+TEST(InterpolateCorrections, BlendsTheTwoNeighbouringNodesByTime) {
+  const CorrectionCase c;
+  const std::vector<double> scales = {1.0, 0.98, 1.03, 0.95, 1.1};
+  const std::vector<int> one_segment(5, 0), pose_segments(c.pose_t_ns.size(), 0);
+  const std::vector<Rigid3d> after = InterpolateCorrections(c.node_t_ns, one_segment, c.node_before, c.node_after,
+                                                            scales, c.pose_t_ns, pose_segments, c.poses_before);
+  ASSERT_EQ(after.size(), c.poses_before.size());
+  for (size_t p = 0; p < after.size(); ++p) {
+    SCOPED_TRACE(p);
+    const int64_t t = c.pose_t_ns[p];
+    if (t % 100 == 0) {  // at a node: exactly its after-pose
+      const size_t node = static_cast<size_t>(t / 100 - 1);
+      EXPECT_LT((after[p].translation - c.node_after[node].translation).norm(), 1e-12);
+      EXPECT_LT(after[p].rotation.angularDistance(c.node_after[node].rotation), 1e-12);
+    } else if (t < 100 || t > 500) {  // one side only: that node alone, with its scale
+      const int node = t < 100 ? 0 : 4;
+      const Rigid3d expected = CarriedByNode(c, node, scales[static_cast<size_t>(node)], c.poses_before[p]);
+      EXPECT_LT((after[p].translation - expected.translation).norm(), 1e-12);
+      EXPECT_LT(after[p].rotation.angularDistance(expected.rotation), 1e-12);
+    } else {  // between nodes a and a + 1: the blend, both with a's scale
+      const int a = static_cast<int>(t / 100) - 1;
+      const double tau = static_cast<double>(t - c.node_t_ns[static_cast<size_t>(a)]) / 100.0;
+      const double s = scales[static_cast<size_t>(a)];
+      const Rigid3d from_a = CarriedByNode(c, a, s, c.poses_before[p]);
+      const Rigid3d from_b = CarriedByNode(c, a + 1, s, c.poses_before[p]);
+      EXPECT_LT((after[p].translation - ((1 - tau) * from_a.translation + tau * from_b.translation)).norm(), 1e-12);
+      EXPECT_LT(after[p].rotation.angularDistance(from_a.rotation.slerp(tau, from_b.rotation)), 1e-12);
+      // Strictly between the two predictions when they differ.
+      const double gap = (from_a.translation - from_b.translation).norm();
+      ASSERT_GT(gap, 1e-3);
+      EXPECT_NEAR((after[p].translation - from_a.translation).norm(), tau * gap, 1e-9);
+    }
+  }
+  // Continuous at a node: a pose 1 ns before node 3 (t 400) that equals
+  // node 3's before-pose lands within 1 % (tau 0.99) of the way to node 2's
+  // prediction, where CorrectPoses (node 2 alone) puts it.
+  const std::vector<Rigid3d> near = InterpolateCorrections(c.node_t_ns, one_segment, c.node_before, c.node_after,
+                                                           scales, {399}, {0}, {c.node_before[3]});
+  const std::vector<Rigid3d> jump =
+      CorrectPoses(c.node_t_ns, c.node_before, c.node_after, scales, {399}, {c.node_before[3]});
+  const double jump_m = (jump[0].translation - c.node_after[3].translation).norm();
+  ASSERT_GT(jump_m, 0.1);
+  EXPECT_NEAR((near[0].translation - c.node_after[3].translation).norm(), 0.01 * jump_m, 1e-9);
+}
+
+TEST(InterpolateCorrections, TheSameCorrectionEverywhereMovesEveryPoseByIt) {
+  CorrectionCase c;
+  const Rigid3d correction(Rpy(0.2, -0.1, 0.4), Eigen::Vector3d(1.0, -2.0, 0.5));
+  for (size_t k = 0; k < c.node_after.size(); ++k) c.node_after[k] = correction * c.node_before[k];
+  const std::vector<Rigid3d> after =
+      InterpolateCorrections(c.node_t_ns, std::vector<int>(5, 0), c.node_before, c.node_after,
+                             std::vector<double>(5, 1.0), c.pose_t_ns, std::vector<int>(c.pose_t_ns.size(), 0),
+                             c.poses_before);
+  for (size_t p = 0; p < after.size(); ++p) {
+    const Rigid3d expected = correction * c.poses_before[p];
+    EXPECT_LT((after[p].translation - expected.translation).norm(), 1e-12) << p;
+    EXPECT_LT(after[p].rotation.angularDistance(expected.rotation), 1e-12) << p;
+  }
+}
+
+TEST(InterpolateCorrections, NeverBlendsAcrossSegments) {
+  const CorrectionCase c;
+  // Nodes 0, 1 in segment 0, nodes 2-4 in segment 1. Poses at 250 (between
+  // nodes 1 and 2): of segment 0, node 1 alone (no later node of its
+  // segment); of segment 1, node 2 alone (no earlier one); of a segment
+  // without nodes, the latest node at or before it (CorrectPoses).
+  const std::vector<int> node_segment = {0, 0, 1, 1, 1};
+  const std::vector<double> scales(5, 1.0);
+  const Rigid3d pose = c.poses_before[8];  // t = 250 in the fixture
+  const std::vector<Rigid3d> after = InterpolateCorrections(c.node_t_ns, node_segment, c.node_before, c.node_after,
+                                                            scales, {250, 250, 250}, {0, 1, 7}, {pose, pose, pose});
+  const Rigid3d by_1 = CarriedByNode(c, 1, 1.0, pose), by_2 = CarriedByNode(c, 2, 1.0, pose);
+  EXPECT_LT((after[0].translation - by_1.translation).norm(), 1e-12);
+  EXPECT_LT((after[1].translation - by_2.translation).norm(), 1e-12);
+  EXPECT_LT((after[2].translation - by_1.translation).norm(), 1e-12);
+  EXPECT_GT((by_1.translation - by_2.translation).norm(), 1e-3);
+}
+
 TEST(PoseGraphOptions, CheckNamesTheField) {
   EXPECT_NO_THROW(PoseGraphOptions().Check());
   struct Case {

@@ -91,7 +91,19 @@ struct RpeAverage {
   double rotation_deg_per_m = 0.0;
 };
 
+// Between consecutive matched poses (k, k+1 in pair order: one frame apart
+// when every frame is matched), whatever the lengths: the frame-to-frame
+// error E = (T_gt,k^-1 T_gt,k+1)^-1 (T_est,k^-1 T_est,k+1) of the aligned
+// estimate, the TUM benchmark's RPE with a delta of one frame. What a jump
+// of the estimate between two frames costs, which the length-based RPE
+// averages away. Computed with at least 2 matched poses.
+struct RpeStepResult {
+  ErrorStats translation_m;  // |t(E)|
+  ErrorStats rotation_deg;   // angle(E)
+};
+
 struct RpeResult {
+  RpeStepResult step;
   bool computed = false;
   std::string skipped_reason;  // when !computed
   std::vector<RpeLengthResult> lengths;

@@ -153,4 +153,27 @@ std::vector<Rigid3d> CorrectPoses(const std::vector<int64_t>& node_t_ns,
                                   const std::vector<int64_t>& pose_t_ns,
                                   const std::vector<Rigid3d>& poses_before);
 
+// Carries corrections known at nodes (refined keyframes) to the poses
+// between them, continuously in time within a segment. For a pose at t
+// between two nodes a, b of its segment (t_a <= t < t_b), each of the two
+// predicts it as CorrectPoses does with its own node (the translation
+// relative to the node scaled by node_scale[a], the stretch of the interval
+// a-b), and the pose is the blend of the two predictions by
+// tau = (t - t_a) / (t_b - t_a): rotations by slerp, translations linearly.
+// A pose with only an earlier (or only a later) node in its segment follows
+// that node alone, with that node's scale; a pose whose segment has neither
+// next to it follows the latest node at or before it (before the first:
+// the first), as CorrectPoses. So a pose equal to its node's before-pose
+// becomes that node's after-pose, and a pose just before node b is carried
+// by b's correction, not by a's (no jump at b when the nodes' corrections
+// differ). node_segment, node_scale: one per node; pose_segment: one per
+// pose (MCVO_CHECK); the node conditions of CorrectPoses hold.
+std::vector<Rigid3d> InterpolateCorrections(const std::vector<int64_t>& node_t_ns, const std::vector<int>& node_segment,
+                                            const std::vector<Rigid3d>& node_before,
+                                            const std::vector<Rigid3d>& node_after,
+                                            const std::vector<double>& node_scale,
+                                            const std::vector<int64_t>& pose_t_ns,
+                                            const std::vector<int>& pose_segment,
+                                            const std::vector<Rigid3d>& poses_before);
+
 }  // namespace mcvo
