@@ -273,15 +273,7 @@ EvalResult EvaluateTrajectory(const Trajectory& gt, const Trajectory& est, const
     }
   }
   if (!result.rpe.computed) result.notes.push_back("RPE skipped: " + result.rpe.skipped_reason);
-  std::vector<double> step_translation, step_rotation;
-  for (size_t k = 0; k + 1 < m; ++k) {
-    const Rigid3d error = (gt_poses[k].Inverse() * gt_poses[k + 1]).Inverse() *
-                          (est_aligned_poses[k].Inverse() * est_aligned_poses[k + 1]);
-    step_translation.push_back(error.translation.norm());
-    step_rotation.push_back(RotationAngle(error.rotation) * kRadToDeg);
-  }
-  result.rpe.step.translation_m = ComputeStats(step_translation);
-  result.rpe.step.rotation_deg = ComputeStats(step_rotation);
+  result.rpe.step = ComputeRpeStep(gt_poses, est_aligned_poses);
 
   std::vector<Eigen::Vector3d> est_aligned_matched(m);
   for (size_t k = 0; k < m; ++k) est_aligned_matched[k] = est_aligned_poses[k].translation;

@@ -75,6 +75,21 @@ std::vector<RpeSegment> ComputeRpeSegments(const std::vector<Rigid3d>& gt_poses,
   return segments;
 }
 
+RpeStepResult ComputeRpeStep(const std::vector<Rigid3d>& gt_poses, const std::vector<Rigid3d>& est_aligned_poses) {
+  MCVO_CHECK(gt_poses.size() == est_aligned_poses.size());
+  std::vector<double> translation, rotation;
+  for (size_t k = 0; k + 1 < gt_poses.size(); ++k) {
+    const Rigid3d error = (gt_poses[k].Inverse() * gt_poses[k + 1]).Inverse() *
+                          (est_aligned_poses[k].Inverse() * est_aligned_poses[k + 1]);
+    translation.push_back(error.translation.norm());
+    rotation.push_back(RotationAngle(error.rotation) * kRadToDeg);
+  }
+  RpeStepResult step;
+  step.translation_m = ComputeStats(translation);
+  step.rotation_deg = ComputeStats(rotation);
+  return step;
+}
+
 RpeResult ComputeRpe(const std::vector<Rigid3d>& gt_poses, const std::vector<Rigid3d>& est_aligned_poses,
                      const std::vector<Eigen::Vector3d>& est_raw_positions,
                      const std::vector<double>& lengths_m,

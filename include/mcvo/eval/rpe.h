@@ -54,6 +54,10 @@ RpeResult ComputeRpe(const std::vector<Rigid3d>& gt_poses, const std::vector<Rig
                      const std::vector<std::optional<double>>& length_percents, double tolerance,
                      std::optional<double> sim3_scale);
 
+// The error between consecutive matched poses (EvalResult's rpe.step;
+// RpeStepResult); gt_poses and est_aligned_poses have the same size.
+RpeStepResult ComputeRpeStep(const std::vector<Rigid3d>& gt_poses, const std::vector<Rigid3d>& est_aligned_poses);
+
 // Local scale over windows of `window` poses (0, window, 2 window, ...):
 // gt_positions and est_aligned_positions have the same size.
 LocalScaleResult ComputeLocalScale(const std::vector<Eigen::Vector3d>& gt_positions,
