@@ -245,6 +245,17 @@ PoseGraphResult OptimizePoseGraph(const std::vector<Rigid3d>& world_from_node,
   return result;
 }
 
+namespace {
+
+// Node `node`'s prediction of a pose (CorrectPoses' rule) with scale `scale`.
+Rigid3d CarriedBy(const Rigid3d& node_before, const Rigid3d& node_after, double scale, const Rigid3d& pose) {
+  const Rigid3d node_from_pose = node_before.Inverse() * pose;
+  return Rigid3d(node_after.rotation * node_from_pose.rotation,
+                 node_after.rotation * (scale * node_from_pose.translation) + node_after.translation);
+}
+
+}  // namespace
+
 std::vector<Rigid3d> CorrectPoses(const std::vector<int64_t>& node_t_ns,
                                   const std::vector<Rigid3d>& node_before,
                                   const std::vector<Rigid3d>& node_after,
@@ -264,11 +275,7 @@ std::vector<Rigid3d> CorrectPoses(const std::vector<int64_t>& node_t_ns,
   for (size_t p = 0; p < poses_before.size(); ++p) {
     const auto later = std::upper_bound(node_t_ns.begin(), node_t_ns.end(), pose_t_ns[p]);
     const size_t node = later == node_t_ns.begin() ? 0 : static_cast<size_t>(later - node_t_ns.begin()) - 1;
-    const Rigid3d node_from_pose = node_before[node].Inverse() * poses_before[p];
-    const Rigid3d& world_from_node = node_after[node];
-    poses_after[p] = Rigid3d(world_from_node.rotation * node_from_pose.rotation,
-                             world_from_node.rotation * (node_scale[node] * node_from_pose.translation) +
-                                 world_from_node.translation);
+    poses_after[p] = CarriedBy(node_before[node], node_after[node], node_scale[node], poses_before[p]);
   }
   return poses_after;
 }
@@ -281,17 +288,6 @@ std::vector<Rigid3d> CorrectPoses(const std::vector<int64_t>& node_t_ns,
   return CorrectPoses(node_t_ns, node_before, node_after, std::vector<double>(node_t_ns.size(), 1.0),
                       pose_t_ns, poses_before);
 }
-
-namespace {
-
-// Node `node`'s prediction of a pose (CorrectPoses' rule) with scale `scale`.
-Rigid3d CarriedBy(const Rigid3d& node_before, const Rigid3d& node_after, double scale, const Rigid3d& pose) {
-  const Rigid3d node_from_pose = node_before.Inverse() * pose;
-  return Rigid3d(node_after.rotation * node_from_pose.rotation,
-                 node_after.rotation * (scale * node_from_pose.translation) + node_after.translation);
-}
-
-}  // namespace
 
 std::vector<Rigid3d> InterpolateCorrections(const std::vector<int64_t>& node_t_ns, const std::vector<int>& node_segment,
                                             const std::vector<Rigid3d>& node_before,
