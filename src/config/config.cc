@@ -39,6 +39,9 @@ void Visit(V& v, LkOptions* o) {
   v.Field("forward_backward_threshold_px", &o->forward_backward_threshold_px);
   v.Field("predict_rotation", &o->predict_rotation);
   v.Field("predict_rotation_min_px", &o->predict_rotation_min_px);
+  v.Field("predict_motion", &o->predict_motion);
+  v.Field("predict_motion_min_px", &o->predict_motion_min_px);
+  v.Field("predict_motion_min_points", &o->predict_motion_min_points);
 }
 
 template <typename V>

@@ -28,6 +28,7 @@ void AddFrontend(const FrontendOptions& f, std::vector<OptionBound>* b) {
   b->push_back({"/frontend/lk/window_px", f.lk.window_px, 255});
   b->push_back({"/frontend/lk/pyramid_levels", f.lk.pyramid_levels, 10});
   b->push_back({"/frontend/lk/max_iterations", f.lk.max_iterations, 1000});
+  b->push_back({"/frontend/lk/predict_motion_min_points", f.lk.predict_motion_min_points, 10000});
   b->push_back({"/frontend/anchor/half_size_px", f.anchor.half_size_px, 127});
   b->push_back({"/frontend/anchor/max_iterations", f.anchor.max_iterations, 1000});
   b->push_back({"/frontend/superpoint/downscale", f.superpoint.downscale, 16});

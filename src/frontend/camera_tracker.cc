@@ -36,6 +36,7 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <utility>
 
 #include <opencv2/imgproc.hpp>
@@ -109,11 +110,11 @@ struct CameraTracker::Impl {
     return mask.at<uint8_t>(y, x) != 0;
   }
 
-  CameraFrameResult Track(const cv::Mat& input);
+  CameraFrameResult Track(const cv::Mat& input, const FeaturePredictions* predictions);
   // The steps of Track: LK forward (and backward) from the previous frame;
   // `kept`: indices into prev_features, `kept_pixels` their new pixels.
-  void TrackLk(const std::vector<cv::Mat>& pyramid, std::vector<int>* kept,
-               std::vector<cv::Point2f>* kept_pixels, CameraFrameStats* stats) const;
+  void TrackLk(const std::vector<cv::Mat>& pyramid, const FeaturePredictions* predictions,
+               std::vector<int>* kept, std::vector<cv::Point2f>* kept_pixels, CameraFrameStats* stats) const;
   // RANSAC on bearings removes the tracks inconsistent with one relative
   // pose; a pixel the model cannot unproject counts as lost by LK. Returns
   // the rotation fitted to the inliers (FitBearingRotation) when
@@ -174,9 +175,11 @@ CameraTracker::CameraTracker(const Camera& camera, const cv::Mat& mask, const Fr
 
 CameraTracker::~CameraTracker() = default;
 
-CameraFrameResult CameraTracker::Track(const cv::Mat& image) { return impl_->Track(image); }
+CameraFrameResult CameraTracker::Track(const cv::Mat& image, const FeaturePredictions* predictions) {
+  return impl_->Track(image, predictions);
+}
 
-CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
+CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input, const FeaturePredictions* predictions) {
   CameraFrameResult result;
   CameraFrameStats& stats = result.stats;
   if (input.empty()) {
@@ -219,7 +222,7 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   start = Clock::now();
   std::vector<int> kept;  // indices into prev_features
   std::vector<cv::Point2f> kept_pixels;
-  TrackLk(pyramid, &kept, &kept_pixels, &stats);
+  TrackLk(pyramid, predictions, &kept, &kept_pixels, &stats);
   stats.seconds_lk = SecondsSince(start);
   start = Clock::now();
   rotation = RejectByRansac(&kept, &kept_pixels, &stats);
@@ -271,8 +274,9 @@ CameraFrameResult CameraTracker::Impl::Track(const cv::Mat& input) {
   return result;
 }
 
-void CameraTracker::Impl::TrackLk(const std::vector<cv::Mat>& pyramid, std::vector<int>* kept,
-                                  std::vector<cv::Point2f>* kept_pixels, CameraFrameStats* stats) const {
+void CameraTracker::Impl::TrackLk(const std::vector<cv::Mat>& pyramid, const FeaturePredictions* predictions,
+                                  std::vector<int>* kept, std::vector<cv::Point2f>* kept_pixels,
+                                  CameraFrameStats* stats) const {
   const cv::Size window(options.lk.window_px, options.lk.window_px);
   if (!prev_features.empty() && !prev_pyramid.empty()) {
     std::vector<cv::Point2f> prev_pts, cur_pts;
@@ -281,12 +285,40 @@ void CameraTracker::Impl::TrackLk(const std::vector<cv::Mat>& pyramid, std::vect
                                     options.lk.max_iterations, 0.001);
     std::vector<uint8_t> status;
     std::vector<float> error;
-    // With a rotation: both directions start at the rotated positions.
-    const bool predict = rotation.has_value();
+    // Per feature, the predicted move (motion prediction), if any: both
+    // directions start from it. Otherwise, with a rotation, both start at
+    // the rotated positions; else at the previous position and the forward
+    // result. OpenCV's LK started at the previous position with
+    // OPTFLOW_USE_INITIAL_FLOW is LK without it, so mixing starts changes
+    // nothing for the others.
+    std::vector<std::optional<cv::Point2f>> moved(prev_pts.size());
+    bool any_moved = false;
+    if (predictions != nullptr && !predictions->empty()) {
+      const double min_move2 = options.lk.predict_motion_min_px * options.lk.predict_motion_min_px;
+      for (size_t i = 0; i < prev_pts.size(); ++i) {
+        const auto it = predictions->find(prev_features[i].id);
+        if (it == predictions->end()) continue;
+        const cv::Point2f p(it->second.x(), it->second.y());
+        if (!Usable(p)) continue;
+        // Only a start LK would not reach from its own one.
+        const cv::Point2f own = rotation ? Rotated(prev_pts[i], *rotation) : prev_pts[i];
+        const cv::Point2f d = p - own;
+        if (static_cast<double>(d.dot(d)) < min_move2) continue;
+        moved[i] = p - prev_pts[i];
+        any_moved = true;
+      }
+    }
+    const bool predict = rotation.has_value() || any_moved;
     int flags = 0;
     if (predict) {
       flags = cv::OPTFLOW_USE_INITIAL_FLOW;
-      for (const cv::Point2f& p : prev_pts) cur_pts.push_back(Rotated(p, *rotation));
+      for (size_t i = 0; i < prev_pts.size(); ++i) {
+        if (moved[i]) {
+          cur_pts.push_back(prev_pts[i] + *moved[i]);
+        } else {
+          cur_pts.push_back(rotation ? Rotated(prev_pts[i], *rotation) : prev_pts[i]);
+        }
+      }
     }
     cv::calcOpticalFlowPyrLK(prev_pyramid, pyramid, prev_pts, cur_pts, status, error, window,
                              options.lk.pyramid_levels, criteria, flags);
@@ -294,8 +326,15 @@ void CameraTracker::Impl::TrackLk(const std::vector<cv::Mat>& pyramid, std::vect
     std::vector<cv::Point2f> back_pts;
     if (options.lk.forward_backward_check) {
       if (predict) {
-        const Eigen::Matrix3d inverse = rotation->transpose();
-        for (const cv::Point2f& p : cur_pts) back_pts.push_back(Rotated(p, inverse));
+        const std::optional<Eigen::Matrix3d> inverse =
+            rotation ? std::optional<Eigen::Matrix3d>(rotation->transpose()) : std::nullopt;
+        for (size_t i = 0; i < cur_pts.size(); ++i) {
+          if (moved[i]) {
+            back_pts.push_back(cur_pts[i] - *moved[i]);
+          } else {
+            back_pts.push_back(inverse ? Rotated(cur_pts[i], *inverse) : cur_pts[i]);
+          }
+        }
       }
       cv::calcOpticalFlowPyrLK(pyramid, prev_pyramid, cur_pts, back_pts, back_status, error, window,
                                options.lk.pyramid_levels, criteria, flags);

@@ -32,6 +32,8 @@ void FrontendOptions::Check() const {
   CheckAtLeast("/frontend/lk/max_iterations", lk.max_iterations, 1);
   CheckPositive("/frontend/lk/forward_backward_threshold_px", lk.forward_backward_threshold_px);
   CheckAtLeast("/frontend/lk/predict_rotation_min_px", lk.predict_rotation_min_px, 0.0);
+  CheckAtLeast("/frontend/lk/predict_motion_min_px", lk.predict_motion_min_px, 0.0);
+  CheckAtLeast("/frontend/lk/predict_motion_min_points", lk.predict_motion_min_points, 3);
   CheckAtLeast("/frontend/anchor/half_size_px", anchor.half_size_px, 2);
   CheckAtLeast("/frontend/anchor/weight_sigma_px", anchor.weight_sigma_px, 0.0);
   CheckAtLeast("/frontend/anchor/max_iterations", anchor.max_iterations, 1);

@@ -32,6 +32,7 @@
 #include "mcvo/util/parallel.h"
 #include "mcvo/util/stage.h"
 #include "mcvo/util/strings.h"
+#include "motion_predictor.h"
 
 namespace mcvo {
 namespace {
@@ -117,6 +118,8 @@ struct MultiCameraTracker::Impl {
   double rematch_below_fraction = 0.5;
   int threads = 1;
   uint64_t next_id = 1;  // 0 means "not assigned yet"
+  // With lk.predict_motion and matched pairs: LK's starts from the rig's motion.
+  std::unique_ptr<frontend_internal::RigMotionPredictor> predictor;
 };
 
 MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat>& masks,
@@ -161,6 +164,10 @@ MultiCameraTracker::MultiCameraTracker(const Rig& rig, const std::vector<cv::Mat
   impl_->last_matches.resize(impl_->pairs.size());
   impl_->frames_since_full.assign(impl_->pairs.size(), 0);
   impl_->full_matches.assign(impl_->pairs.size(), 0);
+  if (options.lk.predict_motion && !impl_->pairs.empty()) {
+    impl_->predictor = std::make_unique<frontend_internal::RigMotionPredictor>(rig, options.ransac_focal_px,
+                                                                               options.lk.predict_motion_min_points);
+  }
   LogScaledCameras(rig, options, scales);
   LogFeatureBudgets(rig, options);
 }
@@ -177,11 +184,13 @@ MultiCameraFrame MultiCameraTracker::Track(int frame_index, int64_t t_ns,
   frame.frame_index = frame_index;
   frame.t_ns = t_ns;
   frame.cameras.resize(n);
+  const std::vector<FeaturePredictions> predictions =
+      impl_->predictor ? impl_->predictor->Predict(t_ns) : std::vector<FeaturePredictions>();
   // An exception: the first failing camera's, in camera order.
   ParallelFor(static_cast<int>(n), impl_->threads,
               [&](size_t c) {
                 const ScopedStage stage(StrCat("camera ", c));
-                frame.cameras[c] = impl_->trackers[c]->Track(images[c]);
+                frame.cameras[c] = impl_->trackers[c]->Track(images[c], predictions.empty() ? nullptr : &predictions[c]);
               });
   for (size_t c = 0; c < n; ++c) impl_->trackers[c]->AssignNewIds(&impl_->next_id, &frame.cameras[c]);
 
@@ -217,6 +226,7 @@ MultiCameraFrame MultiCameraTracker::Track(int frame_index, int64_t t_ns,
   for (const std::vector<CrossCameraMatch>& pair_matches : matches) {
     frame.cross_matches.insert(frame.cross_matches.end(), pair_matches.begin(), pair_matches.end());
   }
+  if (impl_->predictor) impl_->predictor->Update(frame);
   return frame;
 }
 

@@ -118,7 +118,8 @@ TEST(Config, UnknownKeysAreRejectedAtAnyDepth) {
   EXPECT_EQ(
       ErrorOf(R"({"frontend": {"lk": {"window": 21}}})"),
       "c.json: /frontend/lk/window: unknown key (valid keys: window_px, pyramid_levels, max_iterations, "
-      "forward_backward_check, forward_backward_threshold_px, predict_rotation, predict_rotation_min_px)");
+      "forward_backward_check, forward_backward_threshold_px, predict_rotation, predict_rotation_min_px, "
+      "predict_motion, predict_motion_min_px, predict_motion_min_points)");
   EXPECT_EQ(ErrorOf(R"({"frontnd": {}})"),
             "c.json: /frontnd: unknown key (valid keys: dataset, frontend, initializer, backend, loop, "
             "refine, output, colmap, runtime, eval)");

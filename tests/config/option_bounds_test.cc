@@ -31,6 +31,7 @@ const std::map<std::string, int64_t>& DocumentedMaxima() {
       {"/frontend/clahe/tile_grid", 256},
       {"/frontend/lk/window_px", 255},
       {"/frontend/lk/pyramid_levels", 10},
+      {"/frontend/lk/predict_motion_min_points", 10000},
       {"/frontend/lk/max_iterations", 1000},
       {"/frontend/anchor/half_size_px", 127},
       {"/frontend/anchor/max_iterations", 1000},

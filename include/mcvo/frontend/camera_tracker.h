@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -54,6 +55,9 @@ struct CameraFrameResult {
   CameraFrameStats stats;
 };
 
+// Starting pixels for LK by feature id (frontend.lk.predict_motion).
+using FeaturePredictions = std::unordered_map<uint64_t, Eigen::Vector2f>;
+
 class CameraTracker {
  public:
   CameraTracker(const Camera& camera, const cv::Mat& mask, const FrontendOptions& options,
@@ -64,7 +68,11 @@ class CameraTracker {
 
   // Tracks into the next image (CV_8UC1; an empty Mat means this camera has
   // no image in this frame: every track ends). New features have id 0.
-  CameraFrameResult Track(const cv::Mat& image);
+  // predictions (optional): where some of the previous frame's features are
+  // expected, by id; LK starts there (forward) and at the forward result
+  // shifted back by the predicted move (backward) for those that land
+  // inside the usable image, and as without predictions for the others.
+  CameraFrameResult Track(const cv::Mat& image, const FeaturePredictions* predictions = nullptr);
   // Gives the id-0 features of `result` (the last Track()) consecutive ids
   // from *next_id on, advancing it, and records them for the next frame.
   void AssignNewIds(uint64_t* next_id, CameraFrameResult* result);

@@ -68,6 +68,18 @@ struct LkOptions {
   // as without the prediction.
   bool predict_rotation = true;
   double predict_rotation_min_px = 16.0;
+  // Start LK at the pixel where the rig's own motion moves a feature that
+  // has a metric depth from a cross-camera match (src/frontend/
+  // motion_predictor.h): the rig motion of the previous frame pair is fitted
+  // to those features (constant velocity), so a near point under fast
+  // forward motion, which moves beyond LK's reach from its previous
+  // position, is found. Features without a depth start as above, and so
+  // does a feature whose predicted pixel is less than predict_motion_min_px
+  // from that start (LK reaches it from there). Rigs without overlapping
+  // cameras are unaffected.
+  bool predict_motion = false;  // off until the renders say yes (results/motion_prediction.md)
+  double predict_motion_min_px = 16.0;
+  int predict_motion_min_points = 12;  // fewest inliers of the fitted motion; fewer: no prediction
 };
 
 // Anchor check of LK tracks (include/mcvo/frontend/patch_aligner.h): every
