@@ -290,7 +290,13 @@ void CameraTracker::Impl::TrackLk(const std::vector<cv::Mat>& pyramid, const Fea
     // the rotated positions; else at the previous position and the forward
     // result. OpenCV's LK started at the previous position with
     // OPTFLOW_USE_INITIAL_FLOW is LK without it, so mixing starts changes
-    // nothing for the others.
+    // nothing for the others. own_pts: LK's own start (the previous
+    // position, or its rotation).
+    const bool predict_rotation = rotation.has_value();
+    std::vector<cv::Point2f> own_pts = prev_pts;
+    if (predict_rotation) {
+      for (cv::Point2f& p : own_pts) p = Rotated(p, *rotation);
+    }
     std::vector<std::optional<cv::Point2f>> moved(prev_pts.size());
     bool any_moved = false;
     if (predictions != nullptr && !predictions->empty()) {
@@ -301,23 +307,19 @@ void CameraTracker::Impl::TrackLk(const std::vector<cv::Mat>& pyramid, const Fea
         const cv::Point2f p(it->second.x(), it->second.y());
         if (!Usable(p)) continue;
         // Only a start LK would not reach from its own one.
-        const cv::Point2f own = rotation ? Rotated(prev_pts[i], *rotation) : prev_pts[i];
-        const cv::Point2f d = p - own;
+        const cv::Point2f d = p - own_pts[i];
         if (static_cast<double>(d.dot(d)) < min_move2) continue;
         moved[i] = p - prev_pts[i];
         any_moved = true;
       }
     }
-    const bool predict = rotation.has_value() || any_moved;
+    const bool predict = predict_rotation || any_moved;
     int flags = 0;
     if (predict) {
       flags = cv::OPTFLOW_USE_INITIAL_FLOW;
+      cur_pts = own_pts;
       for (size_t i = 0; i < prev_pts.size(); ++i) {
-        if (moved[i]) {
-          cur_pts.push_back(prev_pts[i] + *moved[i]);
-        } else {
-          cur_pts.push_back(rotation ? Rotated(prev_pts[i], *rotation) : prev_pts[i]);
-        }
+        if (moved[i]) cur_pts[i] = prev_pts[i] + *moved[i];
       }
     }
     cv::calcOpticalFlowPyrLK(prev_pyramid, pyramid, prev_pts, cur_pts, status, error, window,
@@ -326,13 +328,12 @@ void CameraTracker::Impl::TrackLk(const std::vector<cv::Mat>& pyramid, const Fea
     std::vector<cv::Point2f> back_pts;
     if (options.lk.forward_backward_check) {
       if (predict) {
-        const std::optional<Eigen::Matrix3d> inverse =
-            rotation ? std::optional<Eigen::Matrix3d>(rotation->transpose()) : std::nullopt;
+        const Eigen::Matrix3d inverse = predict_rotation ? Eigen::Matrix3d(rotation->transpose()) : Eigen::Matrix3d();
         for (size_t i = 0; i < cur_pts.size(); ++i) {
           if (moved[i]) {
             back_pts.push_back(cur_pts[i] - *moved[i]);
           } else {
-            back_pts.push_back(inverse ? Rotated(cur_pts[i], *inverse) : cur_pts[i]);
+            back_pts.push_back(predict_rotation ? Rotated(cur_pts[i], inverse) : cur_pts[i]);
           }
         }
       }

@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 
 #include "mcvo/frontend/cross_camera.h"
+#include "mcvo/geometry/so3.h"
 
 namespace mcvo::frontend_internal {
 namespace {
@@ -66,8 +67,8 @@ double ErrorPx(const MotionResidual& r, const Rigid3d& next_from_prev, const Eig
 // One Ceres solve of next_from_prev over the residuals `use`.
 Rigid3d Solve(const std::vector<MotionResidual>& residuals, const std::vector<int>& use, const Rigid3d& initial,
               double huber_px) {
-  const Eigen::AngleAxisd aa(initial.rotation);
-  double angle_axis[3] = {aa.angle() * aa.axis().x(), aa.angle() * aa.axis().y(), aa.angle() * aa.axis().z()};
+  const Eigen::Vector3d phi = So3Log(initial.rotation);
+  double angle_axis[3] = {phi.x(), phi.y(), phi.z()};
   double translation[3] = {initial.translation.x(), initial.translation.y(), initial.translation.z()};
   ceres::Problem problem;
   for (int i : use) {
@@ -82,19 +83,15 @@ Rigid3d Solve(const std::vector<MotionResidual>& residuals, const std::vector<in
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
-  const Eigen::Vector3d w(angle_axis[0], angle_axis[1], angle_axis[2]);
-  const double angle = w.norm();
-  const Eigen::Quaterniond rotation =
-      angle > 0.0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, w / angle)) : Eigen::Quaterniond::Identity();
-  return Rigid3d(rotation, Eigen::Vector3d(translation[0], translation[1], translation[2]));
+  return Rigid3d(So3Exp(Eigen::Vector3d(angle_axis[0], angle_axis[1], angle_axis[2])),
+                 Eigen::Vector3d(translation[0], translation[1], translation[2]));
 }
 
 // `motion` for a time step `ratio` times its own (rotation angle and
 // translation scaled: constant velocity).
 Rigid3d ScaledMotion(const Rigid3d& motion, double ratio) {
   if (ratio == 1.0) return motion;
-  const Eigen::AngleAxisd aa(motion.rotation);
-  return Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(aa.angle() * ratio, aa.axis())), motion.translation * ratio);
+  return Rigid3d(So3Exp(ratio * So3Log(motion.rotation)), motion.translation * ratio);
 }
 
 }  // namespace
